@@ -1,0 +1,30 @@
+//! Shared vocabulary of rtsim.
+//!
+//! Every other crate speaks in these types, so they are deliberately small and stable:
+//!
+//! - [`math`]: [`Vec3`] and [`Aabb`], the geometry of scenes and BVHs, plus [`Affine`]
+//!   transforms for scene descriptors.
+//! - [`ray`]: the [`Ray`] every tracer and hardware model consumes.
+//! - [`rng`]: [`Pcg32`], a seeded, counter-friendly generator; per-pixel streams are derived
+//!   with [`rng::stream_seed`] so results do not depend on thread scheduling.
+//! - [`mem`]: the request interface between requesters (caches, TMs, T&I units) and memory
+//!   models (the DRAM crate): [`MemRequest`], [`MemCompletion`] and the [`MemoryPort`] trait.
+//! - [`clock`]: [`Clock`] domains and exact cycle conversion between them (1 GHz core with a
+//!   2 GHz DRAM, a 500 MHz T&I unit with 800 MHz LPDDR3, any integer frequencies).
+//! - [`output`]: atomic file writes (temp file + rename), so a crash never leaves half a file.
+//! - [`stats`]: helpers for typed statistics (numerators and denominators kept, ratios
+//!   computed only when reporting).
+
+pub mod clock;
+pub mod math;
+pub mod mem;
+pub mod output;
+pub mod ray;
+pub mod rng;
+pub mod stats;
+
+pub use clock::Clock;
+pub use math::{Aabb, Affine, Vec3};
+pub use mem::{MemCompletion, MemOp, MemRequest, MemoryPort, QueueFull};
+pub use ray::Ray;
+pub use rng::Pcg32;

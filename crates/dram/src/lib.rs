@@ -1,0 +1,3 @@
+//! Cycle-level DRAM model.
+//!
+//! PLACEHOLDER (skeleton): the DRAM issue fills this crate.

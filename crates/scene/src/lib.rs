@@ -1,0 +1,199 @@
+//! Scenes: triangles, materials, a camera and a point light.
+//!
+//! A [`Scene`] is what every tracer consumes: a flat list of triangles in *scene order* (the
+//! order that triangle ids in `hits.bin` and `export-triangles` refer to), one material per
+//! triangle, a [`Camera`] and a [`PointLight`]. This crate never builds a BVH (pbrt's rule: the
+//! parser knows nothing of acceleration structures).
+//!
+//! Sources:
+//! - mesh files: Wavefront OBJ (+MTL `Kd`) and PLY (ascii, binary LE/BE), plain or compressed
+//!   (`.zst`, `.gz`): [`mesh`];
+//! - scene descriptors in TOML (meshes with transforms, camera, light, optional closed box,
+//!   workload defaults), shipped for every scene in `shared/scenes`: [`descriptor`];
+//! - built-in procedural scenes needing no files (`cornell`, `hairball`, `vegetation`),
+//!   deterministic from a seed and scalable by a size factor: [`procedural`];
+//! - [`registry`] resolves a `--scene` argument (built-in name, descriptor name, or path) and
+//!   the scene directory (`--scene-dir`, `RTSIM_SCENE_DIR`, `../shared/scenes`).
+//!
+//! Degenerate input: zero-area or non-finite triangles are dropped and counted
+//! ([`LoadReport`]); out-of-range indices, truncated files and malformed numbers are
+//! [`SceneError`]s naming the file and line.
+
+pub mod descriptor;
+pub mod mesh;
+pub mod procedural;
+pub mod registry;
+
+use rtsim_core::{Aabb, Vec3};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+pub use registry::{
+    SceneInfo, SceneRequest, SceneSource, list_scenes, load_scene, resolve_scene_dir,
+};
+
+/// A triangle given by its three vertices.
+pub type Triangle = [Vec3; 3];
+
+/// A Lambertian material (the only kind the papers' workloads use).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    pub name: String,
+    /// Diffuse albedo (MTL `Kd`), each component in [0, 1].
+    pub albedo: Vec3,
+    /// Emitted radiance (MTL `Ke`); only seen by camera/bounce rays hitting the surface.
+    pub emission: Vec3,
+}
+
+impl Material {
+    /// The grey used when a mesh has no material or its MTL file is missing.
+    pub fn default_grey() -> Material {
+        Material {
+            name: "default".into(),
+            albedo: Vec3::splat(0.7),
+            emission: Vec3::ZERO,
+        }
+    }
+}
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Camera {
+    pub eye: Vec3,
+    /// Viewing direction (need not be normalised).
+    pub direction: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in degrees, in (0, 180).
+    pub fov_y_deg: f32,
+}
+
+impl Camera {
+    /// The camera basis: (right, up, forward), orthonormal.
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        let f = self.direction.normalized();
+        let mut r = f.cross(self.up).normalized();
+        if r.length_squared() == 0.0 {
+            // `up` parallel to the view direction: pick any perpendicular.
+            r = f.orthonormal_basis().0;
+        }
+        let u = r.cross(f);
+        (r, u, f)
+    }
+
+    /// Direction (not normalised) through image position (`x`, `y`) in pixels, measured from
+    /// the top-left corner of a `width` × `height` image; pixel (i, j) has its centre at
+    /// (i + 0.5, j + 0.5). Square pixels; the vertical field of view spans the image height.
+    #[inline]
+    pub fn direction_through(
+        &self,
+        basis: &(Vec3, Vec3, Vec3),
+        x: f32,
+        y: f32,
+        width: u32,
+        height: u32,
+    ) -> Vec3 {
+        let (r, u, f) = *basis;
+        let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
+        let aspect = width as f32 / height as f32;
+        let sx = (2.0 * x / width as f32 - 1.0) * tan_half * aspect;
+        let sy = (1.0 - 2.0 * y / height as f32) * tan_half;
+        f + r * sx + u * sy
+    }
+}
+
+/// An isotropic point light.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointLight {
+    pub position: Vec3,
+    /// Radiant intensity per colour channel (W/sr, in scene units): irradiance at distance d
+    /// is intensity / d².
+    pub intensity: Vec3,
+}
+
+/// What loading dropped or noticed (logged, and written to stats.json).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LoadReport {
+    /// Triangles dropped for zero area.
+    pub dropped_degenerate: u64,
+    /// Triangles dropped for non-finite coordinates.
+    pub dropped_non_finite: u64,
+    /// Polygons with more than three vertices, fan-triangulated.
+    pub polygons_triangulated: u64,
+    /// Warnings (missing MTL, unknown material, unused elements), one line each.
+    pub warnings: Vec<String>,
+}
+
+impl LoadReport {
+    pub fn merge(&mut self, o: LoadReport) {
+        self.dropped_degenerate += o.dropped_degenerate;
+        self.dropped_non_finite += o.dropped_non_finite;
+        self.polygons_triangulated += o.polygons_triangulated;
+        self.warnings.extend(o.warnings);
+    }
+}
+
+/// A scene ready for BVH construction.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    /// Triangles in scene order.
+    pub triangles: Vec<Triangle>,
+    /// Material index per triangle (parallel to `triangles`).
+    pub material_ids: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub camera: Camera,
+    pub light: PointLight,
+    /// Workload defaults from the descriptor (`[workload]` table), merged under user settings.
+    pub workload_defaults: toml::Table,
+    /// Files the scene was read from (for reports).
+    pub files: Vec<PathBuf>,
+    pub report: LoadReport,
+}
+
+impl Scene {
+    pub fn bounds(&self) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for t in &self.triangles {
+            for &v in t {
+                b.grow(v);
+            }
+        }
+        b
+    }
+
+    pub fn material_of(&self, triangle: u32) -> &Material {
+        &self.materials[self.material_ids[triangle as usize] as usize]
+    }
+}
+
+/// Errors name the file and, where there is one, the line.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}: {message}")]
+    Parse {
+        path: PathBuf,
+        line: u64,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    Format { path: PathBuf, message: String },
+    #[error("unknown scene `{name}`; known scenes: {known}")]
+    UnknownScene { name: String, known: String },
+    #[error(
+        "scene `{name}` needs {file}, which is not in the scene directory {dir} (set --scene-dir or RTSIM_SCENE_DIR)"
+    )]
+    MissingSceneFile {
+        name: String,
+        file: String,
+        dir: String,
+    },
+    #[error("{0}")]
+    Config(#[from] rtsim_config::ConfigError),
+    #[error("scene `{0}` has no valid triangles")]
+    Empty(String),
+}

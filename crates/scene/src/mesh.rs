@@ -1,0 +1,1 @@
+//! PLACEHOLDER (skeleton): filled in by the scene work.

@@ -1,0 +1,6 @@
+//! The functional ray tracer: the oracle every hardware model must match.
+//!
+//! PLACEHOLDER (skeleton).
+
+pub mod config;
+pub use config::{TraceConfig, TraversalOrder, TriangleTest, WorkloadConfig, WorkloadKind};

@@ -1,0 +1,22 @@
+//! One module per subcommand; each owns its clap arguments where they are its alone.
+
+pub mod bench;
+pub mod bvh_stats;
+pub mod export;
+pub mod render;
+pub mod scenes;
+pub mod trace;
+
+use crate::cli::{Cli, Command};
+use anyhow::Result;
+
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Render(a) => render::run(a),
+        Command::Trace(a) => trace::run(a),
+        Command::ExportTriangles(a) => export::run(a),
+        Command::BvhStats(a) => bvh_stats::run(a),
+        Command::Scenes(a) => scenes::run(a),
+        Command::Bench(a) => bench::run(a),
+    }
+}
