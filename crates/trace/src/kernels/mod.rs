@@ -1,0 +1,12 @@
+//! Intersection kernels shared by the functional tracer and (later) the hardware models.
+//!
+//! - [`slab`]: ray–box slab test with a precomputed inverse direction.
+//! - [`triangle`]: three ray–triangle tests that agree away from edges: Möller–Trumbore (the
+//!   baseline TRaX kernel), Plücker (STRaTA's triangle pipeline: no divide unless it hits) and
+//!   Wald's precomputed projection test (SGRT's IST unit).
+
+pub mod slab;
+pub mod triangle;
+
+pub use slab::{RayBox, slab_test};
+pub use triangle::{TriHit, TriKernel, moller_trumbore, plucker, wald};

@@ -1,0 +1,404 @@
+//! Ray–triangle tests.
+//!
+//! All three report the same hit convention: distance `t` in units of the ray direction's
+//! length, accepted when `tmin <= t < tmax`, and barycentrics `(u, v)` where `u` weights the
+//! triangle's second vertex and `v` its third (`P = (1-u-v)·v0 + u·v1 + v·v2`). Triangles are
+//! two-sided. Away from edges the three agree to float precision (property-tested below); on
+//! an edge each may decide either way.
+//!
+//! Each test is a [`TriKernel`]: `prepare` turns a triangle into the record the kernel reads
+//! (what the hardware would store per triangle), `intersect` tests one ray against it.
+
+use rtsim_core::{Ray, Vec3};
+
+/// A hit on one triangle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriHit {
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// A ray–triangle test with its precomputed per-triangle record.
+pub trait TriKernel: Send + Sync + 'static {
+    type Data: Copy + Send + Sync + std::fmt::Debug;
+    /// Short name for reports.
+    const NAME: &'static str;
+    fn prepare(tri: &[Vec3; 3]) -> Self::Data;
+    fn intersect(data: &Self::Data, ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit>;
+}
+
+/// Möller & Trumbore, "Fast, minimum storage ray/triangle intersection", JGT 1997.
+/// Record: `v0`, edges `e1 = v1 - v0`, `e2 = v2 - v0`. One divide per test.
+#[derive(Clone, Copy, Debug)]
+pub struct MollerTrumbore;
+
+/// Plücker-coordinate test (Shevtsov et al. 2007 as used by STRaTA §3.3): three signed
+/// volumes decide hit or miss with multiplies and adds only; the divide happens only on a hit.
+/// Record: the three vertices.
+#[derive(Clone, Copy, Debug)]
+pub struct Plucker;
+
+/// Wald's precomputed projection test (Wald, PhD thesis 2004, §7.1; SGRT's IST unit):
+/// project onto the plane of the normal's dominant axis `k`; ten floats and `k` per triangle.
+#[derive(Clone, Copy, Debug)]
+pub struct Wald;
+
+/// Wald's per-triangle record (44 bytes of data).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WaldTri {
+    /// Plane: `P[k] + n_u·P[ku] + n_v·P[kv] = n_d`.
+    pub n_u: f32,
+    pub n_v: f32,
+    pub n_d: f32,
+    /// Dominant axis of the normal (0, 1, 2); `ku = (k+1) % 3`, `kv = (k+2) % 3`.
+    /// A degenerate triangle gets `k = 3`, which never hits.
+    pub k: u32,
+    /// `u = b_nu·h_u + b_nv·h_v + b_d` in the projection plane.
+    pub b_nu: f32,
+    pub b_nv: f32,
+    pub b_d: f32,
+    /// `v = c_nu·h_u + c_nv·h_v + c_d`.
+    pub c_nu: f32,
+    pub c_nv: f32,
+    pub c_d: f32,
+}
+
+impl TriKernel for MollerTrumbore {
+    type Data = [Vec3; 3];
+    const NAME: &'static str = "moller-trumbore";
+    #[inline(always)]
+    fn prepare(t: &[Vec3; 3]) -> [Vec3; 3] {
+        [t[0], t[1] - t[0], t[2] - t[0]]
+    }
+    #[inline(always)]
+    fn intersect(d: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
+        moller_trumbore(d, ray, tmin, tmax)
+    }
+}
+
+/// Möller–Trumbore on a prepared record `[v0, e1, e2]`.
+#[inline(always)]
+pub fn moller_trumbore(rec: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
+    let [v0, e1, e2] = *rec;
+    let p = ray.direction.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = ray.origin - v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = ray.direction.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    (t >= tmin && t < tmax).then_some(TriHit { t, u, v })
+}
+
+impl TriKernel for Plucker {
+    type Data = [Vec3; 3];
+    const NAME: &'static str = "plucker";
+    #[inline(always)]
+    fn prepare(t: &[Vec3; 3]) -> [Vec3; 3] {
+        *t
+    }
+    #[inline(always)]
+    fn intersect(d: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
+        plucker(d, ray, tmin, tmax)
+    }
+}
+
+/// Plücker test on the three vertices.
+#[inline(always)]
+pub fn plucker(tri: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
+    let d = ray.direction;
+    let a = tri[0] - ray.origin;
+    let b = tri[1] - ray.origin;
+    let c = tri[2] - ray.origin;
+    // Signed volumes: proportional to the barycentric weights of v0, v1, v2.
+    let w0 = d.dot(c.cross(b));
+    let w1 = d.dot(a.cross(c));
+    let w2 = d.dot(b.cross(a));
+    let any_neg = w0 < 0.0 || w1 < 0.0 || w2 < 0.0;
+    let any_pos = w0 > 0.0 || w1 > 0.0 || w2 > 0.0;
+    if any_neg && any_pos {
+        return None;
+    }
+    let det = w0 + w1 + w2;
+    if det == 0.0 {
+        return None;
+    }
+    // det = -d·n with n = (v1-v0)×(v2-v0), so t = n·a / n·d = -(n·a) / det. Compare t·det with
+    // the interval scaled by det to decide without dividing.
+    let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+    let t_scaled = -n.dot(a);
+    let in_range = if det > 0.0 {
+        t_scaled >= tmin * det && t_scaled < tmax * det
+    } else {
+        t_scaled <= tmin * det && t_scaled > tmax * det
+    };
+    if !in_range {
+        return None;
+    }
+    // The one divide, on a hit. Re-check the interval after rounding so all kernels share the
+    // exact acceptance rule `tmin <= t < tmax`.
+    let inv = 1.0 / det;
+    let t = t_scaled * inv;
+    if !(t >= tmin && t < tmax) {
+        return None;
+    }
+    Some(TriHit {
+        t,
+        u: w1 * inv,
+        v: w2 * inv,
+    })
+}
+
+impl Wald {
+    /// Precompute the record of a triangle.
+    pub fn record(t: &[Vec3; 3]) -> WaldTri {
+        let a = t[0];
+        let c = t[1] - a; // weights u
+        let b = t[2] - a; // weights v
+        let n = c.cross(b);
+        let k = n.abs().max_axis();
+        let (ku, kv) = ((k + 1) % 3, (k + 2) % 3);
+        let nk = n[k];
+        let det2 = c[ku] * b[kv] - c[kv] * b[ku];
+        if nk == 0.0 || det2 == 0.0 || !nk.is_finite() || !det2.is_finite() {
+            return WaldTri {
+                n_u: 0.0,
+                n_v: 0.0,
+                n_d: 0.0,
+                k: 3,
+                b_nu: 0.0,
+                b_nv: 0.0,
+                b_d: 0.0,
+                c_nu: 0.0,
+                c_nv: 0.0,
+                c_d: 0.0,
+            };
+        }
+        let inv_nk = 1.0 / nk;
+        let inv2 = 1.0 / det2;
+        // Solve h - a = u·c + v·b in the (ku, kv) plane.
+        WaldTri {
+            n_u: n[ku] * inv_nk,
+            n_v: n[kv] * inv_nk,
+            n_d: n.dot(a) * inv_nk,
+            k: k as u32,
+            b_nu: b[kv] * inv2,
+            b_nv: -b[ku] * inv2,
+            b_d: (b[ku] * a[kv] - b[kv] * a[ku]) * inv2,
+            c_nu: -c[kv] * inv2,
+            c_nv: c[ku] * inv2,
+            c_d: (c[kv] * a[ku] - c[ku] * a[kv]) * inv2,
+        }
+    }
+}
+
+impl TriKernel for Wald {
+    type Data = WaldTri;
+    const NAME: &'static str = "wald";
+    #[inline(always)]
+    fn prepare(t: &[Vec3; 3]) -> WaldTri {
+        Wald::record(t)
+    }
+    #[inline(always)]
+    fn intersect(d: &WaldTri, ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
+        wald(d, ray, tmin, tmax)
+    }
+}
+
+/// Wald's test on a precomputed record.
+#[inline(always)]
+pub fn wald(w: &WaldTri, ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
+    const MOD3: [usize; 5] = [0, 1, 2, 0, 1];
+    let k = w.k as usize;
+    if k > 2 {
+        return None;
+    }
+    let (ku, kv) = (MOD3[k + 1], MOD3[k + 2]);
+    let (o, d) = (ray.origin, ray.direction);
+    let denom = d[k] + w.n_u * d[ku] + w.n_v * d[kv];
+    if denom == 0.0 {
+        return None;
+    }
+    let nd = 1.0 / denom;
+    let t = (w.n_d - o[k] - w.n_u * o[ku] - w.n_v * o[kv]) * nd;
+    if !(t >= tmin && t < tmax) {
+        return None;
+    }
+    let hu = o[ku] + t * d[ku];
+    let hv = o[kv] + t * d[kv];
+    let u = hu * w.b_nu + hv * w.b_nv + w.b_d;
+    if u < 0.0 {
+        return None;
+    }
+    let v = hu * w.c_nu + hv * w.c_nv + w.c_d;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    Some(TriHit { t, u, v })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn unit_tri() -> [Vec3; 3] {
+        [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ]
+    }
+
+    fn all(tri: &[Vec3; 3], ray: &Ray) -> [Option<TriHit>; 3] {
+        let (lo, hi) = (ray.tmin, ray.tmax);
+        [
+            MollerTrumbore::intersect(&MollerTrumbore::prepare(tri), ray, lo, hi),
+            Plucker::intersect(&Plucker::prepare(tri), ray, lo, hi),
+            Wald::intersect(&Wald::prepare(tri), ray, lo, hi),
+        ]
+    }
+
+    #[test]
+    fn known_answer_unit_triangle() {
+        // A ray down the z axis onto (0.25, 0.5): t = 2, u = 0.25 (weight of v1 = (1,0,0)), v = 0.5.
+        let ray = Ray::new(
+            Vec3::new(0.25, 0.5, 2.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            0.0,
+            f32::INFINITY,
+        );
+        for h in all(&unit_tri(), &ray) {
+            let h = h.expect("hit");
+            assert!(
+                (h.t - 2.0).abs() < 1e-6 && (h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6,
+                "{h:?}"
+            );
+        }
+        // Non-normalised direction: t in its units.
+        let ray = Ray::new(
+            Vec3::new(0.25, 0.5, 2.0),
+            Vec3::new(0.0, 0.0, -4.0),
+            0.0,
+            f32::INFINITY,
+        );
+        for h in all(&unit_tri(), &ray) {
+            assert!((h.unwrap().t - 0.5).abs() < 1e-6);
+        }
+        // From below (two-sided).
+        let ray = Ray::new(
+            Vec3::new(0.25, 0.5, -1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            0.0,
+            f32::INFINITY,
+        );
+        for h in all(&unit_tri(), &ray) {
+            assert!((h.unwrap().t - 1.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn misses_and_interval() {
+        let tri = unit_tri();
+        let outside = Ray::new(
+            Vec3::new(0.8, 0.8, 1.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            0.0,
+            f32::INFINITY,
+        );
+        let behind = Ray::new(
+            Vec3::new(0.2, 0.2, 1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            0.0,
+            f32::INFINITY,
+        );
+        let short = Ray::new(
+            Vec3::new(0.2, 0.2, 1.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            0.0,
+            0.5,
+        );
+        let parallel = Ray::new(
+            Vec3::new(-1.0, 0.2, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            0.0,
+            f32::INFINITY,
+        );
+        let late = Ray::new(
+            Vec3::new(0.2, 0.2, 1.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            1.5,
+            f32::INFINITY,
+        );
+        for ray in [outside, behind, short, parallel, late] {
+            assert_eq!(all(&tri, &ray), [None, None, None], "{ray:?}");
+        }
+    }
+
+    #[test]
+    fn degenerate_triangle_never_hits() {
+        let tri = [
+            Vec3::ZERO,
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(2.0, 2.0, 2.0),
+        ];
+        let ray = Ray::new(
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            0.0,
+            f32::INFINITY,
+        );
+        assert_eq!(all(&tri, &ray), [None, None, None]);
+    }
+
+    fn v3() -> impl Strategy<Value = Vec3> {
+        (-10.0f32..10.0, -10.0f32..10.0, -10.0f32..10.0).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4000))]
+        /// Rays aimed at a point safely inside a random triangle: every kernel hits, with the
+        /// same t and barycentrics; rays aimed safely outside: every kernel misses.
+        #[test]
+        fn kernels_agree_away_from_edges(
+            a in v3(), b in v3(), c in v3(), origin in v3(),
+            u in -0.5f32..1.5, v in -0.5f32..1.5, scale in 0.1f32..10.0,
+        ) {
+            let tri = [a, b, c];
+            let n = (b - a).cross(c - a);
+            // Skip slivers: area small relative to the edge lengths makes "away from edges" ill-defined.
+            let longest = (b - a).length().max((c - a).length()).max((c - b).length());
+            prop_assume!(n.length() > 0.05 * longest * longest);
+            let inside = u > 0.02 && v > 0.02 && u + v < 0.98;
+            let outside = u < -0.02 || v < -0.02 || u + v > 1.02;
+            let target = a + (b - a) * u + (c - a) * v;
+            let dir = (target - origin) * scale;
+            // Grazing rays are edge cases too: require a decent angle to the plane.
+            let cosang = (dir.normalized().dot(n.normalized())).abs();
+            prop_assume!(cosang > 0.05 && dir.length() > 1e-3);
+            let ray = Ray::new(origin, dir, 0.0, f32::INFINITY);
+            let hits = all(&tri, &ray);
+            if inside {
+                for h in hits {
+                    let h = h.expect("all kernels hit");
+                    let t_expect = 1.0 / scale;
+                    prop_assert!((h.t - t_expect).abs() <= 1e-3 * t_expect, "t {} vs {}", h.t, t_expect);
+                    prop_assert!((h.u - u).abs() < 2e-3 && (h.v - v).abs() < 2e-3, "{h:?} vs {u} {v}");
+                }
+            } else if outside {
+                prop_assert_eq!(hits, [None, None, None]);
+            }
+        }
+    }
+}
