@@ -37,6 +37,9 @@ pub struct TraceConfig {
     /// Any-hit (shadow/AO) rays stop at the first hit. Default true; SimTRaX's sample tracer
     /// used `order = "left-first"` with `early_exit = false`.
     pub early_exit: bool,
+    /// `rtsim trace` and `rtsim bench` use the 4-wide fast path when the kernel is
+    /// `moller-trumbore` (same hits, bit-identical t/u/v, no counters). Default true.
+    pub fast_path: bool,
 }
 
 impl Default for TraceConfig {
@@ -45,6 +48,7 @@ impl Default for TraceConfig {
             triangle_test: TriangleTest::MollerTrumbore,
             order: TraversalOrder::NearestFirst,
             early_exit: true,
+            fast_path: true,
         }
     }
 }

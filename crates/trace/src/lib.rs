@@ -18,8 +18,10 @@
 
 pub mod config;
 pub mod counters;
+pub mod fast;
 pub mod film;
 pub mod kernels;
+pub mod query;
 pub mod sampling;
 pub mod tracer;
 pub mod traverse;

@@ -291,15 +291,12 @@ impl<'a> Integrator<'a> {
         let albedo = self.scene.material_of(h.prim).albedo;
         let mut sum = Vec3::ZERO;
         for i in 0..self.p.spp {
-            let (u, v) = halton2(i, offset);
-            let dir = cosine_hemisphere(n, u, v);
+            let r = self.secondary_ray(n, p, offset, i);
             if self.p.kind == WorkloadKind::Ao {
-                let r = Ray::new(p, dir, 0.0, self.p.ao_radius);
                 if !self.occluded(&r, out, &mut st.ao) {
                     sum += Vec3::ONE;
                 }
             } else {
-                let r = Ray::new(p, dir, 0.0, f32::INFINITY);
                 let h2 = self.closest(&r, out, &mut st.diffuse);
                 // One-bounce inter-reflection: the secondary surface's albedo lit by the
                 // unshadowed point light, or the sky.
@@ -318,6 +315,41 @@ impl<'a> Integrator<'a> {
         } else {
             albedo.mul_elem(mean)
         };
+    }
+
+    /// The `i`-th AO or diffuse ray from surface point `p` with normal `n`: a cosine-weighted
+    /// Halton direction; AO rays end at `ao_radius`, diffuse rays are unbounded.
+    #[inline]
+    fn secondary_ray(&self, n: Vec3, p: Vec3, offset: (f32, f32), i: u32) -> Ray {
+        let (u, v) = halton2(i, offset);
+        let tmax = if self.p.kind == WorkloadKind::Ao {
+            self.p.ao_radius
+        } else {
+            f32::INFINITY
+        };
+        Ray::new(p, cosine_hemisphere(n, u, v), 0.0, tmax)
+    }
+
+    /// The rays of pixel (x, y) that a benchmark of this workload times: the camera ray for
+    /// `primary`, the AO or diffuse rays for `ao` / `diffuse` (exactly the rays `pixel`
+    /// traces, found by tracing the camera ray first), the camera rays otherwise.
+    pub fn benchmark_rays(&self, x: u32, y: u32, out: &mut Vec<Ray>) {
+        let camera = self.camera_ray(x, y, (0.5, 0.5));
+        match self.p.kind {
+            WorkloadKind::Ao | WorkloadKind::Diffuse => {
+                let pixel_index = y as u64 * self.p.width as u64 + x as u64;
+                let mut rng = Pcg32::new(stream_seed(self.p.seed, pixel_index, 0), pixel_index);
+                let h = self
+                    .tracer
+                    .closest_hit(&camera, &mut RayCounters::default());
+                if h.is_hit() {
+                    let (n, p) = self.surface(&camera, &h);
+                    let offset = (rng.next_f32(), rng.next_f32());
+                    out.extend((0..self.p.spp).map(|i| self.secondary_ray(n, p, offset, i)));
+                }
+            }
+            _ => out.push(camera),
+        }
     }
 
     /// One path: camera ray, then at each hit a shadow ray to the point light and (until
