@@ -224,6 +224,7 @@ mod tests {
                         triangle_test: test,
                         order,
                         early_exit,
+                        fast_path: false,
                     });
                 }
             }
