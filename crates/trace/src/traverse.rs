@@ -13,6 +13,7 @@ use crate::counters::RayCounters;
 use crate::kernels::{RayBox, TriKernel, slab_test};
 use rtsim_bvh::Node;
 use rtsim_core::Ray;
+use std::mem::MaybeUninit;
 
 /// Deepest stack the traversal supports; BVH depth is validated against it (`bvh.max_depth`
 /// is at most 128, and a stack never holds more entries than the tree has levels).
@@ -71,7 +72,8 @@ pub fn traverse<K: TriKernel, const ANY: bool>(
     if slab_test(&rb, &root.bounds, ray.tmin, hit.t).is_none() {
         return hit;
     }
-    let mut stack = [(0u32, 0f32); STACK_SIZE];
+    // Uninitialised: zeroing the whole stack per ray would cost more than short traversals.
+    let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK_SIZE];
     let mut sp = 0usize;
     let mut node = 0u32;
     loop {
@@ -108,7 +110,7 @@ pub fn traverse<K: TriKernel, const ANY: bool>(
                     } else {
                         (ri, li, a)
                     };
-                    stack[sp] = (second, t_second);
+                    stack[sp].write((second, t_second));
                     sp += 1;
                     c.stack_pushes += 1;
                     c.max_stack = c.max_stack.max(sp as u32);
@@ -132,7 +134,8 @@ pub fn traverse<K: TriKernel, const ANY: bool>(
                 return hit;
             }
             sp -= 1;
-            let (n, t_entry) = stack[sp];
+            // SAFETY: entries below `sp` were written by the pushes above.
+            let (n, t_entry) = unsafe { stack[sp].assume_init() };
             if t_entry < hit.t {
                 node = n;
                 break;
