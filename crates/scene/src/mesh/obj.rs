@@ -289,7 +289,15 @@ impl<'p> ObjParser<'p> {
 
     fn load_library(&mut self, line_no: u64, name: &str) -> Result<(), SceneError> {
         let dir = self.path.parent().unwrap_or(Path::new(""));
-        let base = dir.join(name);
+        // `mtllib ./x.mtl` is common; drop the `.` so messages show `dir/x.mtl`.
+        let base: PathBuf = std::iter::once(dir.as_os_str())
+            .chain(
+                Path::new(name)
+                    .components()
+                    .filter(|c| *c != std::path::Component::CurDir)
+                    .map(|c| c.as_os_str()),
+            )
+            .collect();
         let candidates = [
             base.clone(),
             with_suffix(&base, ".zst"),
