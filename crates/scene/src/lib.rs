@@ -15,6 +15,7 @@
 //! - [`registry`] resolves a `--scene` argument (built-in name, descriptor name, or path) and
 //!   the scene directory (`--scene-dir`, `RTSIM_SCENE_DIR`, `../shared/scenes`).
 //!
+//! - [`export`] writes and reads `tris.bin`, the triangle file of `rtsim export-triangles`;
 //! - [`auto`] frames a camera and places a light for meshes loaded without a descriptor, and
 //!   computes the default light intensity.
 //!
@@ -25,6 +26,7 @@
 
 pub mod auto;
 pub mod descriptor;
+pub mod export;
 pub mod mesh;
 pub mod procedural;
 pub mod registry;
