@@ -179,19 +179,21 @@ impl Descriptor {
     /// Parse descriptor text; `origin` names it in errors (file:line: key `a.b`: message).
     pub fn parse(text: &str, origin: &Path) -> Result<Descriptor, SceneError> {
         let located = |e: toml::de::Error, key: Option<String>| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].matches('\n').count() as u64 + 1)
-                .unwrap_or(0);
             let msg = e.message().trim().to_string();
             let message = match key.filter(|k| !k.is_empty() && k != ".") {
                 Some(k) => format!("key `{k}`: {msg}"),
                 None => msg,
             };
-            SceneError::Parse {
-                path: origin.to_path_buf(),
-                line,
-                message,
+            match e.span() {
+                Some(s) => SceneError::Parse {
+                    path: origin.to_path_buf(),
+                    line: text[..s.start.min(text.len())].matches('\n').count() as u64 + 1,
+                    message,
+                },
+                None => SceneError::Format {
+                    path: origin.to_path_buf(),
+                    message,
+                },
             }
         };
         let de = toml::Deserializer::parse(text).map_err(|e| located(e, None))?;

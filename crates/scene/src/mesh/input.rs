@@ -93,6 +93,10 @@ impl<'p, R: BufRead> LineReader<'p, R> {
             }
             self.lines_read += 1;
             self.bytes_read += n as u64;
+            // A UTF-8 byte order mark (some Windows exporters write one) is not content.
+            if self.lines_read == 1 && self.buf.starts_with(b"\xEF\xBB\xBF") {
+                self.buf.drain(..3);
+            }
             if self.buf.last() == Some(&b'\n') {
                 self.buf.pop();
             }
@@ -152,6 +156,11 @@ mod tests {
             ]
         );
         assert!(lines("", false).is_empty());
+    }
+
+    #[test]
+    fn byte_order_mark_is_skipped() {
+        assert_eq!(lines("\u{feff}v 1 2 3\nx", false)[0], (1, "v 1 2 3".into()));
     }
 
     #[test]

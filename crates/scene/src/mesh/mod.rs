@@ -204,6 +204,50 @@ mod tests {
         );
     }
 
+    const PLY: &[u8] = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n2 0 0\n0 2 0\n3 0 1 2\n";
+
+    fn gzip(bytes: &[u8]) -> Vec<u8> {
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        std::io::Write::write_all(&mut e, bytes).unwrap();
+        e.finish().unwrap()
+    }
+
+    #[test]
+    fn compressed_meshes_load_by_extension() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = b"v 0 0 0\nv 2 0 0\nv 0 2 0\nf 1 2 3\n";
+        let files: [(&str, Vec<u8>); 5] = [
+            ("a.ply", PLY.to_vec()),
+            ("a.ply.zst", zstd::encode_all(PLY, 3).unwrap()),
+            ("a.ply.gz", gzip(PLY)),
+            ("a.obj.zst", zstd::encode_all(&obj[..], 3).unwrap()),
+            ("a.obj.gz", gzip(obj)),
+        ];
+        for (name, bytes) in files {
+            let p = dir.path().join(name);
+            std::fs::write(&p, bytes).unwrap();
+            let m = load_mesh(&p, &Affine::IDENTITY).unwrap();
+            assert_eq!(m.triangles.len(), 1, "{name}");
+            assert_eq!(m.triangles[0][1], Vec3::new(2.0, 0.0, 0.0), "{name}");
+        }
+    }
+
+    #[test]
+    fn truncated_compressed_files_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let big: String = (0..5000).map(|i| format!("v {i} 0 0\n")).collect();
+        for (name, bytes) in [
+            ("t.obj.zst", zstd::encode_all(big.as_bytes(), 3).unwrap()),
+            ("t.obj.gz", gzip(big.as_bytes())),
+            ("t.ply.gz", gzip(PLY)),
+        ] {
+            let p = dir.path().join(name);
+            std::fs::write(&p, &bytes[..bytes.len() * 2 / 3]).unwrap();
+            let e = load_mesh(&p, &Affine::IDENTITY).unwrap_err().to_string();
+            assert!(e.starts_with(&p.display().to_string()), "{name}: {e}");
+        }
+    }
+
     #[test]
     fn append_renumbers_materials() {
         let tri = [

@@ -26,6 +26,10 @@ use std::path::Path;
 /// count must not allocate gigabytes before the body proves it).
 const MAX_RESERVE: u64 = 1 << 24;
 
+/// List entries read per block in binary files (assumed: 4096 covers any real polygon in one
+/// read while bounding the buffer).
+const LIST_BLOCK: usize = 4096;
+
 /// Scalar property types (PLY 1.0 names and their sized aliases).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Scalar {
@@ -524,16 +528,24 @@ impl Body<'_> {
                                     format!("{}: list `{name}` has negative length {len}", at()),
                                 ));
                             }
-                            let bytes = len as usize * item.size();
-                            if buf.len() < bytes {
-                                buf.resize(bytes, 0);
-                            }
-                            r.read_exact(&mut buf[..bytes]).map_err(truncated)?;
-                            if ei == self.layout.face && pi == self.layout.indices {
-                                for c in buf[..bytes].chunks_exact(item.size()) {
-                                    let i = self.check_index(item.decode_int(c, big), &at)?;
-                                    self.face.push(i);
+                            // Read in bounded blocks: a corrupt length (up to 2^32 entries)
+                            // must end in a truncation error, not a huge allocation.
+                            let wanted = self.layout.face == ei && self.layout.indices == pi;
+                            let mut left = len as u64;
+                            while left > 0 {
+                                let n = left.min(LIST_BLOCK as u64) as usize;
+                                let bytes = n * item.size();
+                                if buf.len() < bytes {
+                                    buf.resize(bytes, 0);
                                 }
+                                r.read_exact(&mut buf[..bytes]).map_err(truncated)?;
+                                if wanted {
+                                    for c in buf[..bytes].chunks_exact(item.size()) {
+                                        let i = self.check_index(item.decode_int(c, big), &at)?;
+                                        self.face.push(i);
+                                    }
+                                }
+                                left -= n as u64;
                             }
                         }
                     }
@@ -848,6 +860,23 @@ element face 2\r\nproperty list uchar int vertex_index\r\nproperty float q\r\nen
             e.contains("element `face` #0")
                 && e.contains("index 77 out of range")
                 && e.contains(&format!("byte offset {}", at - 2)),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn corrupt_list_length_is_a_truncation_not_an_allocation() {
+        let mut b = b"ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n".to_vec();
+        for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+            b.extend_from_slice(&v.to_be_bytes());
+        }
+        b.extend_from_slice(&u32::MAX.to_be_bytes());
+        for i in [0i32, 1, 2] {
+            b.extend_from_slice(&i.to_be_bytes());
+        }
+        let e = err(b);
+        assert!(
+            e.contains("element `face` #0") && e.contains("truncated"),
             "{e}"
         );
     }
