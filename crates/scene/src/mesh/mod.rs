@@ -290,4 +290,76 @@ mod tests {
         assert!(flat.triangles.is_empty());
         assert_eq!(flat.report.dropped_degenerate, 1);
     }
+
+    mod no_panics {
+        //! Corrupt input must give an error or a mesh, never a panic.
+        use super::super::{obj, ply};
+        use proptest::prelude::*;
+        use std::io::Cursor;
+        use std::path::Path;
+
+        const OBJ: &str = "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n\
+                           usemtl a\nf 1/1/1 2/1/1 3/1/1 4/1/1\nf -1 -2 -3\ng x\ns off\n";
+        const PLY_HEAD: &str = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n";
+
+        fn parse_obj(bytes: Vec<u8>) {
+            let _ = obj::parse_obj(Cursor::new(bytes), Path::new("/nonexistent/f.obj"));
+        }
+        fn parse_ply(bytes: Vec<u8>) {
+            let _ = ply::parse_ply(Cursor::new(bytes), Path::new("f.ply"));
+        }
+
+        proptest! {
+            #[test]
+            fn mutated_obj(edits in prop::collection::vec((any::<usize>(), any::<u8>(), 0u8..3), 1..8)) {
+                let mut b = OBJ.as_bytes().to_vec();
+                for (at, byte, op) in edits {
+                    let i = at % (b.len() + 1);
+                    match op {
+                        0 => b.insert(i, byte),
+                        1 if i < b.len() => { b.remove(i); }
+                        _ if i < b.len() => b[i] = byte,
+                        _ => {}
+                    }
+                }
+                parse_obj(b);
+            }
+
+            #[test]
+            fn random_binary_ply_body(body in prop::collection::vec(any::<u8>(), 0..80)) {
+                let mut b = PLY_HEAD.as_bytes().to_vec();
+                b.extend(body);
+                parse_ply(b);
+            }
+
+            #[test]
+            fn mutated_ascii_ply(edits in prop::collection::vec((any::<usize>(), any::<u8>()), 1..6)) {
+                let mut b = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar uint vertex_index\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n".to_vec();
+                for (at, byte) in edits {
+                    let i = at % b.len();
+                    b[i] = byte;
+                }
+                parse_ply(b);
+            }
+        }
+
+        #[test]
+        fn every_truncation_of_a_binary_ply_is_an_error() {
+            let mut b = PLY_HEAD.as_bytes().to_vec();
+            for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+                b.extend_from_slice(&v.to_le_bytes());
+            }
+            for face in [[0i32, 1, 2], [2, 1, 0]] {
+                b.push(3);
+                for i in face {
+                    b.extend_from_slice(&i.to_le_bytes());
+                }
+            }
+            assert!(ply::parse_ply(Cursor::new(b.clone()), Path::new("f.ply")).is_ok());
+            for cut in 0..b.len() {
+                let r = ply::parse_ply(Cursor::new(b[..cut].to_vec()), Path::new("f.ply"));
+                assert!(r.is_err(), "cut at {cut} parsed");
+            }
+        }
+    }
 }
