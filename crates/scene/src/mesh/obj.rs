@@ -27,7 +27,8 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
-/// OBJ statements that carry nothing a triangle tracer uses.
+/// OBJ statements that carry nothing a triangle tracer uses (statement names from the OBJ
+/// specification, Appendix B1 of Wavefront's Advanced Visualizer manual).
 const IGNORED: &[&[u8]] = &[
     b"vt",
     b"vn",

@@ -19,12 +19,14 @@ pub const VEGETATION_PLANTS: u64 = 3_125;
 /// Half the side of the planted square (assumed: 25 × 25 units, ~16 instances per unit², a
 /// dense meadow in which the ground shows only between the nearest plants).
 const FIELD_HALF: f32 = 12.5;
-/// Half the side of the ground quad (a margin so no plant stands at the edge).
+/// Half the side of the ground quad (assumed: a 0.5 margin so no plant stands at the edge).
 const GROUND_HALF: f32 = 13.0;
 pub(crate) const GROUND_TRIANGLES: usize = 2;
 
+/// Blades per tuft (assumed: a small clump).
 const BLADES_PER_TUFT: usize = 12;
-/// Points along a blade; the last is the tip (3 quads + a tip triangle).
+/// Points along a blade (assumed: enough for a visible bend); the last is the tip (3 quads +
+/// a tip triangle).
 const BLADE_POINTS: usize = 4;
 const BLADE_TRIANGLES: usize = (BLADE_POINTS - 1) * 2 + 1;
 pub const TUFT_TRIANGLES: usize = BLADES_PER_TUFT * BLADE_TRIANGLES;
@@ -35,6 +37,8 @@ const BLADE_HEIGHT: (f32, f32) = (0.25, 0.7);
 const BLADE_WIDTH: (f32, f32) = (0.008, 0.02);
 const BLADE_LEAN: (f32, f32) = (0.1, 0.6);
 
+/// Stem cross-section sides and segments, leaves per plant, triangles per leaf (assumed: a
+/// thin 3-sided stem like the hairball's tubes; a leaf folded along its midrib needs 4).
 const STEM_SIDES: usize = 3;
 const STEM_SEGMENTS: usize = 6;
 const LEAVES: usize = 24;
