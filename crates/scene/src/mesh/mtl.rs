@@ -117,10 +117,14 @@ pub(crate) fn strip_comment(line: &[u8]) -> &[u8] {
     }
 }
 
-/// The bytes after the first occurrence of `key` (a token of `line`).
+/// The bytes after `key`, a token of `line` (a sub-slice from `tokens(line)`).
 fn rest_bytes<'a>(line: &'a [u8], key: &[u8]) -> &'a [u8] {
-    let start = key.as_ptr() as usize - line.as_ptr() as usize + key.len();
-    &line[start..]
+    let start = (key.as_ptr() as usize)
+        .checked_sub(line.as_ptr() as usize)
+        .map(|off| off + key.len())
+        .filter(|&end| end <= line.len());
+    debug_assert!(start.is_some(), "key is not a token of line");
+    &line[start.unwrap_or(line.len())..]
 }
 
 /// The text after the keyword, trimmed (names may contain spaces).
