@@ -1,8 +1,24 @@
-//! `rtsim export`. PLACEHOLDER (skeleton).
+//! `rtsim export-triangles`: write the scene's triangles in hit-index order (`tris.bin`,
+//! format in `rtsim_scene::export` and docs/SCENES.md), so an external ray caster can rebuild
+//! the identical geometry.
 
 use crate::cli::ExportArgs;
-use anyhow::Result;
+use crate::run_config;
+use anyhow::{Context, Result};
 
-pub fn run(_args: ExportArgs) -> Result<()> {
-    anyhow::bail!("`export` is not built yet")
+pub fn run(args: ExportArgs) -> Result<()> {
+    let r = run_config::resolve(&args.scene, &[])?;
+    let scene = &r.scene;
+    for line in scene.report.log_lines() {
+        eprintln!("warning: scene `{}`: {line}", scene.name);
+    }
+    rtsim_scene::export::write_triangles_file(&args.out, &scene.triangles)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    eprintln!(
+        "wrote {} triangles of scene `{}` to {}",
+        scene.triangles.len(),
+        scene.name,
+        args.out.display()
+    );
+    Ok(())
 }

@@ -15,11 +15,18 @@
 //! - [`registry`] resolves a `--scene` argument (built-in name, descriptor name, or path) and
 //!   the scene directory (`--scene-dir`, `RTSIM_SCENE_DIR`, `../shared/scenes`).
 //!
+//! - [`export`] writes and reads `tris.bin`, the triangle file of `rtsim export-triangles`;
+//! - [`auto`] frames a camera and places a light for meshes loaded without a descriptor, and
+//!   computes the default light intensity.
+//!
 //! Degenerate input: zero-area or non-finite triangles are dropped and counted
-//! ([`LoadReport`]); out-of-range indices, truncated files and malformed numbers are
-//! [`SceneError`]s naming the file and line.
+//! ([`LoadReport`], see [`triangle_defect`]); out-of-range indices, truncated files and
+//! malformed numbers are [`SceneError`]s naming the file and line (or byte offset and element
+//! index for binary PLY). The descriptor format is documented in `docs/SCENES.md`.
 
+pub mod auto;
 pub mod descriptor;
+pub mod export;
 pub mod mesh;
 pub mod procedural;
 pub mod registry;
@@ -130,6 +137,59 @@ impl LoadReport {
         self.polygons_triangulated += o.polygons_triangulated;
         self.warnings.extend(o.warnings);
     }
+
+    /// Count one dropped triangle.
+    pub fn count_defect(&mut self, defect: TriangleDefect) {
+        match defect {
+            TriangleDefect::NonFinite => self.dropped_non_finite += 1,
+            TriangleDefect::ZeroArea => self.dropped_degenerate += 1,
+        }
+    }
+
+    /// One human-readable line per noteworthy item, for the caller's log (empty when loading
+    /// was clean). Fan-triangulated polygons are normal input and not listed.
+    pub fn log_lines(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.dropped_degenerate > 0 {
+            out.push(format!(
+                "dropped {} zero-area triangle(s)",
+                self.dropped_degenerate
+            ));
+        }
+        if self.dropped_non_finite > 0 {
+            out.push(format!(
+                "dropped {} triangle(s) with non-finite coordinates",
+                self.dropped_non_finite
+            ));
+        }
+        out.extend(self.warnings.iter().cloned());
+        out
+    }
+}
+
+/// Why a triangle is dropped on load.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TriangleDefect {
+    /// A coordinate is NaN or infinite.
+    NonFinite,
+    /// The edge cross product is exactly zero in `f32` (repeated or collinear vertices): no
+    /// ray can hit it (the determinant of every triangle test is zero), and it would only
+    /// inflate BVH leaves.
+    ZeroArea,
+}
+
+/// The defect that makes `t` unusable, if any. Non-finite takes precedence.
+#[inline]
+pub fn triangle_defect(t: &Triangle) -> Option<TriangleDefect> {
+    if !(t[0].is_finite() && t[1].is_finite() && t[2].is_finite()) {
+        return Some(TriangleDefect::NonFinite);
+    }
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    // Exact comparison on purpose: any non-zero component means a hittable plane.
+    if n.x == 0.0 && n.y == 0.0 && n.z == 0.0 {
+        return Some(TriangleDefect::ZeroArea);
+    }
+    None
 }
 
 /// A scene ready for BVH construction.
@@ -163,6 +223,50 @@ impl Scene {
 
     pub fn material_of(&self, triangle: u32) -> &Material {
         &self.materials[self.material_ids[triangle as usize] as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: f32, y: f32, z: f32) -> Vec3 {
+        Vec3::new(x, y, z)
+    }
+
+    #[test]
+    fn defects_are_classified() {
+        let ok = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+        assert_eq!(triangle_defect(&ok), None);
+        let repeated = [v(0.0, 0.0, 0.0), v(0.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+        assert_eq!(triangle_defect(&repeated), Some(TriangleDefect::ZeroArea));
+        let collinear = [v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0), v(2.0, 2.0, 2.0)];
+        assert_eq!(triangle_defect(&collinear), Some(TriangleDefect::ZeroArea));
+        let nan = [v(f32::NAN, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+        assert_eq!(triangle_defect(&nan), Some(TriangleDefect::NonFinite));
+        let inf = [
+            v(0.0, 0.0, 0.0),
+            v(1.0, 0.0, f32::INFINITY),
+            v(0.0, 1.0, 0.0),
+        ];
+        assert_eq!(triangle_defect(&inf), Some(TriangleDefect::NonFinite));
+        // Tiny but non-zero area stays: a ray can still hit it.
+        let tiny = [v(0.0, 0.0, 0.0), v(1e-20, 0.0, 0.0), v(0.0, 1e-20, 0.0)];
+        assert_eq!(triangle_defect(&tiny), None);
+    }
+
+    #[test]
+    fn report_lines_and_merge() {
+        let mut a = LoadReport::default();
+        assert!(a.log_lines().is_empty());
+        a.count_defect(TriangleDefect::ZeroArea);
+        let mut b = LoadReport::default();
+        b.count_defect(TriangleDefect::NonFinite);
+        b.warnings.push("w".into());
+        a.merge(b);
+        assert_eq!(a.dropped_degenerate, 1);
+        assert_eq!(a.dropped_non_finite, 1);
+        assert_eq!(a.log_lines().len(), 3);
     }
 }
 

@@ -1,1 +1,0 @@
-//! PLACEHOLDER (skeleton): filled in by the scene work.
