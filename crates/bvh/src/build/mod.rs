@@ -26,6 +26,7 @@
 
 pub(crate) mod arena;
 pub(crate) mod binned;
+mod box4;
 pub(crate) mod sweep;
 
 use crate::config::{Builder, BvhConfig, NodeOrder};

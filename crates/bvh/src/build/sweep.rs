@@ -10,6 +10,7 @@
 //! `parallel_threshold` are built with `rayon::join`.
 
 use super::arena::{BuildTree, InnerSlot, LEAF};
+use super::box4::Box4;
 use super::{Decision, NodeRule, better, choose};
 use crate::config::BvhConfig;
 use rayon::prelude::*;
@@ -27,7 +28,7 @@ fn sort_key(c: f32, id: u32) -> u64 {
 
 struct Ctx<'a> {
     config: &'a BvhConfig,
-    boxes: &'a [Aabb],
+    boxes: &'a [Box4],
     /// Twice the box centre of each triangle.
     cents: &'a [Vec3],
     par_min: usize,
@@ -72,12 +73,18 @@ pub(crate) fn build(
     if n == 0 {
         return BuildTree::empty();
     }
-    let boxes: Vec<Aabb> = (0..n).into_par_iter().map(prim_box).collect();
-    let cents: Vec<Vec3> = boxes.par_iter().map(|b| b.min + b.max).collect();
+    let boxes: Vec<Box4> = (0..n)
+        .into_par_iter()
+        .map(|i| Box4::from_aabb(&prim_box(i)))
+        .collect();
+    let cents: Vec<Vec3> = boxes
+        .par_iter()
+        .map(|b| Vec3::new(b.lo[0] + b.hi[0], b.lo[1] + b.hi[1], b.lo[2] + b.hi[2]))
+        .collect();
     let bounds = boxes
         .par_iter()
         .copied()
-        .reduce(|| Aabb::EMPTY, Aabb::union);
+        .reduce(|| Box4::EMPTY, Box4::union);
     let mut lists: [Vec<u32>; 3] = std::array::from_fn(|axis| {
         let mut keys: Vec<u64> = cents
             .par_iter()
@@ -105,14 +112,14 @@ pub(crate) fn build(
     let root_split = node(&ctx, work, 0, bounds, 0);
     let [prims, _, _] = lists;
     BuildTree {
-        root_bounds: bounds,
+        root_bounds: bounds.to_aabb(),
         root_split,
         inner,
         prims,
     }
 }
 
-fn node(ctx: &Ctx<'_>, w: Work<'_>, start: u32, bounds: Aabb, depth: u32) -> u32 {
+fn node(ctx: &Ctx<'_>, w: Work<'_>, start: u32, bounds: Box4, depth: u32) -> u32 {
     let n = w.lists[0].len();
     let rule = NodeRule::new(ctx.config, n, depth);
     if rule.leaf_forced {
@@ -124,15 +131,15 @@ fn node(ctx: &Ctx<'_>, w: Work<'_>, start: u32, bounds: Aabb, depth: u32) -> u32
 
     // Sweep all three axes; ties go to the more balanced split, then the lower axis, then the
     // lower position. (weighted cost, imbalance, axis, position, left box)
-    let mut best: Option<(f32, u32, usize, usize, Aabb)> = None;
+    let mut best: Option<(f32, u32, usize, usize, Box4)> = None;
     for axis in 0..3 {
         let list = &*w.lists[axis];
-        let mut acc = Aabb::EMPTY;
+        let mut acc = Box4::EMPTY;
         for p in (lo..n).rev() {
             acc = acc.union(ctx.boxes[list[p] as usize]);
             w.tmp[p] = acc.surface_area().to_bits();
         }
-        let mut acc = Aabb::EMPTY;
+        let mut acc = Box4::EMPTY;
         for p in 1..=hi {
             acc = acc.union(ctx.boxes[list[p - 1] as usize]);
             if p < lo {
@@ -166,13 +173,13 @@ fn node(ctx: &Ctx<'_>, w: Work<'_>, start: u32, bounds: Aabb, depth: u32) -> u32
             let m = n / 2;
             let lb = w.lists[axis][..m]
                 .iter()
-                .fold(Aabb::EMPTY, |b, &i| b.union(ctx.boxes[i as usize]));
+                .fold(Box4::EMPTY, |b, &i| b.union(ctx.boxes[i as usize]));
             (axis, m, lb)
         }
     };
     let rb = w.lists[axis][m..]
         .iter()
-        .fold(Aabb::EMPTY, |b, &i| b.union(ctx.boxes[i as usize]));
+        .fold(Box4::EMPTY, |b, &i| b.union(ctx.boxes[i as usize]));
 
     // Stable partition of the other lists around the first right triangle's key.
     let Work {
@@ -222,7 +229,7 @@ fn node(ctx: &Ctx<'_>, w: Work<'_>, start: u32, bounds: Aabb, depth: u32) -> u32
     // The children's borrows have ended; this node's slot is index m of its range, which the
     // right subtree (splits strictly inside (m, end)) never writes.
     inner[m] = InnerSlot {
-        child_bounds: [lb, rb],
+        child_bounds: [lb.to_aabb(), rb.to_aabb()],
         child_split: [ls, rs],
     };
     abs_m

@@ -98,13 +98,16 @@ pub fn scene_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes")
 }
 
-/// THROWAWAY OBJ reader (see the module docs). `None` if the file is missing.
-pub fn load_obj_zst(rel: &str) -> Option<Vec<Tri>> {
+/// THROWAWAY OBJ reader (see the module docs): the triangles with non-zero area (the scene
+/// loader drops the others) and the number of triangles in the file. `None` if the file is
+/// missing.
+pub fn load_obj_zst(rel: &str) -> Option<(Vec<Tri>, usize)> {
     let path = scene_dir().join(rel);
     let file = std::fs::File::open(&path).ok()?;
     let reader = BufReader::new(zstd::Decoder::new(file).expect("zstd stream"));
     let mut verts: Vec<Vec3> = Vec::new();
     let mut tris = Vec::new();
+    let mut in_file = 0;
     for line in reader.lines() {
         let line = line.expect("readable OBJ");
         let mut it = line.split_whitespace();
@@ -125,6 +128,7 @@ pub fn load_obj_zst(rel: &str) -> Option<Vec<Tri>> {
                     })
                     .collect();
                 for k in 1..idx.len() - 1 {
+                    in_file += 1;
                     let t = [verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]];
                     // The scene loader drops zero-area triangles; do the same.
                     if (t[1] - t[0]).cross(t[2] - t[0]).length_squared() > 0.0 {
@@ -135,5 +139,5 @@ pub fn load_obj_zst(rel: &str) -> Option<Vec<Tri>> {
             _ => {}
         }
     }
-    Some(tris)
+    Some((tris, in_file))
 }
