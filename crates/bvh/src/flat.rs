@@ -60,15 +60,22 @@ impl Bvh {
         p
     }
 
-    /// Depth of every node in edges from the root (root = 0).
+    /// Depth of every node in edges from the root (root = 0); nodes not reachable from the
+    /// root (none in a built BVH) get 0.
     pub fn depths(&self) -> Vec<u32> {
         let mut d = vec![0u32; self.nodes.len()];
-        // Children always come after their parent in both layouts, so one forward pass works.
-        for i in 0..self.nodes.len() {
+        let mut stack: Vec<usize> = if self.nodes.is_empty() {
+            vec![]
+        } else {
+            vec![0]
+        };
+        while let Some(i) = stack.pop() {
             let n = self.nodes[i];
             if !n.is_leaf() {
-                d[n.index as usize] = d[i] + 1;
-                d[n.index as usize + 1] = d[i] + 1;
+                for c in [n.index as usize, n.index as usize + 1] {
+                    d[c] = d[i] + 1;
+                    stack.push(c);
+                }
             }
         }
         d

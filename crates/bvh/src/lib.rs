@@ -2,7 +2,7 @@
 //!
 //! - [`BvhConfig`] (`bvh.*`): builder (full-sweep SAH or binned SAH), bins, leaf size, SAH
 //!   costs, depth limit; validated before anything is built.
-//! - [`build`]: builds a build-time tree (an arena indexed by split position, parallel with
+//! - [`build()`]: builds a build-time tree (an arena indexed by split position, parallel with
 //!   rayon for large inputs, identical for any thread count; `build::arena`) with one of two
 //!   builders (`build::binned`, `build::sweep`) and flattens it (`flatten`) into a
 //!   [`Bvh`]: a flat array of 32-byte [`Node`]s in depth-first or breadth-first order plus
@@ -34,7 +34,8 @@ pub use stats::{BvhStats, sah_cost};
 
 use rtsim_core::Vec3;
 
-/// Triangle centroid helper used by builders and tests.
+/// Triangle centroid (mean of the vertices). The builders split on the centre of each
+/// triangle's bounding box instead (Wald 2007's choice, cheaper and order-free).
 #[inline]
 pub fn centroid(t: &[Vec3; 3]) -> Vec3 {
     (t[0] + t[1] + t[2]) * (1.0 / 3.0)

@@ -1,8 +1,8 @@
-//! SAH BVH construction: a build-time tree ([`arena::BuildTree`]) made by one of two builders,
-//! then flattened into a [`Bvh`] (see [`crate::flatten`]).
+//! SAH BVH construction: a build-time tree (`arena::BuildTree`) made by one of two builders,
+//! then flattened into a [`Bvh`] (module `flatten`).
 //!
-//! - [`binned`]: binned SAH (Wald 2007), parallel binning on large nodes;
-//! - [`sweep`]: full-sweep SAH over three pre-sorted index lists.
+//! - `binned`: binned SAH (Wald 2007), parallel binning on large nodes;
+//! - `sweep`: full-sweep SAH over three pre-sorted index lists.
 //!
 //! Both share the split policy below, so they differ only in which candidate splits they see.
 //!
