@@ -1,0 +1,325 @@
+//! Configuration of the BVH build (`bvh.*`) and of its memory image (`memory.*`).
+//!
+//! Both structs are validated before anything is built; errors name the key and the allowed
+//! range. The record layouts the `memory.*` keys control are documented in
+//! `docs/MEMORY_IMAGE.md`.
+
+use rtsim_config::{ConfigError, Validate, check_positive, check_range};
+use serde::{Deserialize, Serialize};
+
+/// Which SAH builder to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Builder {
+    /// Full sweep SAH over sorted centroids on all three axes: every object split is evaluated
+    /// (best quality; O(n log n) per level with pre-sorted index lists).
+    Sweep,
+    /// Binned SAH (Wald 2007): `bins` buckets over the centroid bounds per axis.
+    Binned,
+}
+
+/// BVH build settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BvhConfig {
+    /// SAH builder. Default `binned`. `sweep` is several times slower to build and gives
+    /// slightly cheaper trees (SGRT used a full-SAH BVH).
+    pub builder: Builder,
+    /// Bins per axis for the binned builder. Default 32 (assumed: Wald 2007 reports 16–32 bins
+    /// within a few percent of full-sweep quality); range 2..=1024. More bins cost build time
+    /// linearly in the bin sweep, not in the per-triangle pass.
+    pub bins: u32,
+    /// Largest leaf, in triangles. Default 4; range 1..=255. Larger leaves mean fewer nodes
+    /// and more triangle tests per ray. A node with more triangles than this is always split,
+    /// even where the SAH prefers a leaf.
+    pub max_leaf_size: u32,
+    /// SAH cost of one traversal step, relative to `intersection_cost`. Default 1.0 (SimTRaX's
+    /// `BVH_C_trav`); any finite value > 0.
+    pub traversal_cost: f32,
+    /// SAH cost of one triangle test. Default 1.0 (SimTRaX's `BVH_C_isec`); any finite value > 0.
+    pub intersection_cost: f32,
+    /// Maximum depth of any node, counted in edges from the root (root = depth 0). Default 64;
+    /// range 1..=128. STRaTA's one-bit-per-level traversal stack is one 32-bit integer (STRaTA
+    /// paper §3.2), so a BVH for STRaTA needs 32. Subtrees that would exceed the limit are
+    /// built with depth-constrained splits (see `build`).
+    pub max_depth: u32,
+    /// Subtrees with at least this many triangles are built in parallel, and nodes with at
+    /// least 4× this many bin their triangles in parallel chunks of this size. Default 4096
+    /// (assumed: about 100 µs of work per task, far above rayon's per-task overhead); range
+    /// 64..=2^31. The tree is identical whatever the value and the thread count.
+    pub parallel_threshold: u32,
+}
+
+impl Default for BvhConfig {
+    fn default() -> Self {
+        BvhConfig {
+            builder: Builder::Binned,
+            bins: 32,
+            max_leaf_size: 4,
+            traversal_cost: 1.0,
+            intersection_cost: 1.0,
+            max_depth: 64,
+            parallel_threshold: 4096,
+        }
+    }
+}
+
+impl Validate for BvhConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        check_range("bvh.bins", self.bins, 2, 1024)?;
+        check_range("bvh.max_leaf_size", self.max_leaf_size, 1, 255)?;
+        check_range("bvh.max_depth", self.max_depth, 1, 128)?;
+        check_positive("bvh.traversal_cost", self.traversal_cost as f64)?;
+        check_positive("bvh.intersection_cost", self.intersection_cost as f64)?;
+        check_range(
+            "bvh.parallel_threshold",
+            self.parallel_threshold,
+            64,
+            1 << 31,
+        )?;
+        Ok(())
+    }
+}
+
+/// Order of nodes in the flat array and hence in memory.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NodeOrder {
+    /// Depth-first (default): the root, then sibling pairs in the order a left-first
+    /// depth-first walk reaches them; triangles in left-to-right leaf order.
+    DepthFirst,
+    /// Breadth-first (level order), sibling pairs adjacent; triangles in level order of their
+    /// leaves.
+    BreadthFirst,
+}
+
+/// Node record size without parent pointers: bounds 24 B + index 4 B + count 4 B (SimTRaX
+/// `BVHNodeSize` without treelets: 8 words).
+pub const NODE_BYTES_PLAIN: u32 = 32;
+/// Node record size with parent pointers: the 32-byte node + parent index 4 B + treelet id
+/// 4 B (SimTRaX `BVHNodeSize` = 10 words when treelets are on: "Box (6), start_child,
+/// num_children, parent, subtree").
+pub const NODE_BYTES_PARENT: u32 = 40;
+/// Smallest record that holds a node and its parent index.
+pub const NODE_BYTES_PARENT_MIN: u32 = 36;
+/// Triangle record: three vertices 36 B + triangle id 4 B + material id 4 B (SimTRaX
+/// `TriangleSize` = 11 words: "3 Verts (9), material_id, object_id").
+pub const TRIANGLE_BYTES_DEFAULT: u32 = 44;
+/// Smallest triangle record: the three vertices a triangle test reads.
+pub const TRIANGLE_BYTES_MIN: u32 = 36;
+/// Largest record of either kind (assumed: four 64-byte lines; anything larger is a typo).
+pub const RECORD_BYTES_MAX: u32 = 256;
+
+/// How the BVH is laid out in the simulated address space (see `MemoryImage` and
+/// `docs/MEMORY_IMAGE.md`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MemoryLayoutConfig {
+    /// Node order, used by the BVH build when it flattens the tree. Default `depth-first`.
+    pub order: NodeOrder,
+    /// Store a parent index with every node (STRaTA's bit-stack traversal needs it). Default
+    /// false. Makes the default node record 40 B instead of 32 B.
+    pub parent_pointers: bool,
+    /// First byte address of the scene data. Default 0. Must be a multiple of
+    /// `region_alignment`.
+    pub base_address: u64,
+    /// Bytes per node record (the stride of the node region and the size of one node fetch).
+    /// Default: unset, meaning 32 (40 with `parent_pointers`), SimTRaX's node sizes. Range
+    /// 32..=256 (36..=256 with parent pointers), a multiple of 4; bytes past the fields are
+    /// padding (64 puts every node alone in a 64-byte line).
+    pub node_bytes: Option<u32>,
+    /// Bytes per triangle record. Default 44 (SimTRaX: 3 vertices, material id, triangle id).
+    /// Range 36..=256, a multiple of 4: 36 keeps only the vertices, 40 adds the triangle id,
+    /// 44 the material id, more is padding (48 keeps records 16-byte aligned).
+    pub triangle_bytes: u32,
+    /// Alignment of each region (nodes, triangles) in bytes. Default 8192, one DRAM row of the
+    /// STRaTA paper's GDDR5 ("treelets are the size of two DRAM rows" with 16 KB L1s, §3.1 and
+    /// §4). A power of two in 64..=2^30.
+    pub region_alignment: u64,
+    /// Start the node region with one record of padding, so the root sits at the end of a
+    /// pair slot and every sibling pair starts at a multiple of 2 × `node_bytes` from the
+    /// region base: with 32-byte nodes, each sibling pair is exactly one 64-byte line (SimTRaX
+    /// `BVH::LoadIntoMemory`: "root node starts mid-line, so that children are cache
+    /// line-aligned"). Default true.
+    pub align_sibling_pairs: bool,
+}
+
+impl Default for MemoryLayoutConfig {
+    fn default() -> Self {
+        MemoryLayoutConfig {
+            order: NodeOrder::DepthFirst,
+            parent_pointers: false,
+            base_address: 0,
+            node_bytes: None,
+            triangle_bytes: TRIANGLE_BYTES_DEFAULT,
+            region_alignment: 8192,
+            align_sibling_pairs: true,
+        }
+    }
+}
+
+impl MemoryLayoutConfig {
+    /// The node record size in effect: `node_bytes`, or the default for the parent-pointer
+    /// setting.
+    pub fn resolved_node_bytes(&self) -> u32 {
+        self.node_bytes.unwrap_or(if self.parent_pointers {
+            NODE_BYTES_PARENT
+        } else {
+            NODE_BYTES_PLAIN
+        })
+    }
+}
+
+impl Validate for MemoryLayoutConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        if let Some(n) = self.node_bytes {
+            let lo = if self.parent_pointers {
+                NODE_BYTES_PARENT_MIN
+            } else {
+                NODE_BYTES_PLAIN
+            };
+            if n < lo || n > RECORD_BYTES_MAX || n % 4 != 0 {
+                let why = if self.parent_pointers {
+                    " (memory.parent_pointers = true needs room for the parent index)"
+                } else {
+                    ""
+                };
+                return Err(ConfigError::range(
+                    "memory.node_bytes",
+                    n,
+                    format!("a multiple of 4 in {lo}..={RECORD_BYTES_MAX}{why}"),
+                ));
+            }
+        }
+        let t = self.triangle_bytes;
+        if !(TRIANGLE_BYTES_MIN..=RECORD_BYTES_MAX).contains(&t) || t % 4 != 0 {
+            return Err(ConfigError::range(
+                "memory.triangle_bytes",
+                t,
+                format!("a multiple of 4 in {TRIANGLE_BYTES_MIN}..={RECORD_BYTES_MAX}"),
+            ));
+        }
+        let a = self.region_alignment;
+        if !a.is_power_of_two() || !(64..=1 << 30).contains(&a) {
+            return Err(ConfigError::range(
+                "memory.region_alignment",
+                a,
+                "a power of two in 64..=1073741824",
+            ));
+        }
+        if self.base_address % a != 0 {
+            return Err(ConfigError::key(
+                "memory.base_address",
+                format!(
+                    "{:#x} is not a multiple of memory.region_alignment ({a})",
+                    self.base_address
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err(c: &impl Validate) -> String {
+        c.validate().unwrap_err().to_string()
+    }
+
+    #[test]
+    fn defaults_validate() {
+        BvhConfig::default().validate().unwrap();
+        MemoryLayoutConfig::default().validate().unwrap();
+    }
+
+    #[test]
+    fn bvh_errors_name_key_and_range() {
+        let c = BvhConfig {
+            bins: 1,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("bvh.bins") && err(&c).contains("2..=1024"));
+        let c = BvhConfig {
+            max_leaf_size: 0,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("bvh.max_leaf_size"));
+        let c = BvhConfig {
+            traversal_cost: f32::NAN,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("bvh.traversal_cost"));
+        let c = BvhConfig {
+            intersection_cost: 0.0,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("bvh.intersection_cost"));
+        let c = BvhConfig {
+            max_depth: 129,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("bvh.max_depth"));
+        let c = BvhConfig {
+            parallel_threshold: 8,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("bvh.parallel_threshold"));
+    }
+
+    #[test]
+    fn node_bytes_default_follows_parent_pointers() {
+        let mut c = MemoryLayoutConfig::default();
+        assert_eq!(c.resolved_node_bytes(), 32);
+        c.parent_pointers = true;
+        assert_eq!(c.resolved_node_bytes(), 40);
+        c.node_bytes = Some(64);
+        assert_eq!(c.resolved_node_bytes(), 64);
+        c.validate().unwrap();
+    }
+
+    #[test]
+    fn memory_errors_name_key_and_range() {
+        let c = MemoryLayoutConfig {
+            parent_pointers: true,
+            node_bytes: Some(32),
+            ..Default::default()
+        };
+        let e = err(&c);
+        assert!(
+            e.contains("memory.node_bytes") && e.contains("36..=256"),
+            "{e}"
+        );
+        let c = MemoryLayoutConfig {
+            node_bytes: Some(34),
+            ..Default::default()
+        };
+        assert!(err(&c).contains("memory.node_bytes"));
+        let c = MemoryLayoutConfig {
+            triangle_bytes: 32,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("memory.triangle_bytes"));
+        let c = MemoryLayoutConfig {
+            region_alignment: 3000,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("memory.region_alignment"));
+        let c = MemoryLayoutConfig {
+            base_address: 100,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("memory.base_address"));
+    }
+
+    #[test]
+    fn unset_node_bytes_is_absent_from_toml() {
+        // The resolved config must round-trip: an unset `node_bytes` stays unset.
+        let c = MemoryLayoutConfig::default();
+        let t = toml::to_string(&c).unwrap();
+        assert!(!t.contains("node_bytes"), "{t}");
+        let back: MemoryLayoutConfig = toml::from_str(&t).unwrap();
+        assert_eq!(back, c);
+    }
+}
