@@ -46,13 +46,16 @@ pub struct Node8 {
     valid: u32,
 }
 
-/// Four triangles as `v0`, `e1 = v1 - v0`, `e2 = v2 - v0` in structure of arrays.
+/// Four triangles as `v0`, `e1 = v1 - v0`, `e2 = v2 - v0` in structure of arrays, with their
+/// scene ids (`NO_HIT` for padding lanes) in the same 160-byte record, so a hit needs no
+/// further memory access.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+#[repr(C, align(32))]
 pub struct Tri4 {
     v0: [[f32; 4]; 3],
     e1: [[f32; 4]; 3],
     e2: [[f32; 4]; 3],
+    ids: [u32; 4],
 }
 
 /// The wide BVH.
@@ -60,8 +63,6 @@ pub struct Tri4 {
 pub struct FastBvh {
     nodes: Vec<Node8>,
     packets: Vec<Tri4>,
-    /// Scene id per packet lane (`NO_HIT` for padding).
-    ids: Vec<[u32; 4]>,
     /// The root is a leaf (a scene of one small leaf).
     root_leaf: Option<u32>,
     /// The CPU has AVX: box tests take eight lanes at once.
@@ -146,8 +147,8 @@ impl FastBvh {
                 v0: [[0.0; 4]; 3],
                 e1: [[0.0; 4]; 3],
                 e2: [[0.0; 4]; 3],
+                ids: [NO_HIT; 4],
             };
-            let mut ids = [NO_HIT; 4];
             for (lane, &slot) in chunk.iter().enumerate() {
                 let id = bvh.prim_ids[slot as usize];
                 let t = &triangles[id as usize];
@@ -157,10 +158,9 @@ impl FastBvh {
                     p.e1[a][lane] = e1[a];
                     p.e2[a][lane] = e2[a];
                 }
-                ids[lane] = id;
+                p.ids[lane] = id;
             }
             self.packets.push(p);
-            self.ids.push(ids);
         }
         let count = self.packets.len() - first;
         if count == 0 || count > COUNT_MASK as usize + 1 {
@@ -298,7 +298,7 @@ impl FastBvh {
             if let Some((lane, t, u, v)) = tri4(&self.packets[p], ray, ray.tmin, hit.t) {
                 *hit = Hit {
                     t,
-                    prim: self.ids[p][lane],
+                    prim: self.packets[p].ids[lane],
                     u,
                     v,
                 };
