@@ -235,9 +235,7 @@ pub(crate) fn build(
     config: &BvhConfig,
     prim_box: &(impl Fn(usize) -> Aabb + Sync),
 ) -> BuildTree {
-    if n == 0 {
-        return BuildTree::empty();
-    }
+    debug_assert!(n > 0, "build_tree handles the empty scene");
     let mut prims: Vec<PrimRef> = (0..n)
         .into_par_iter()
         .map(|i| PrimRef::new(&prim_box(i), i as u32))

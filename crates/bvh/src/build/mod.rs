@@ -10,8 +10,9 @@
 //! At a node with `n` triangles, box area `A`, remaining depth budget `r = max_depth − depth`:
 //! 1. `n == 1` or `r == 0`: leaf.
 //! 2. The best split minimises `C_t·A + C_i·(A_L·n_L + A_R·n_R)` over the candidates (exact
-//!    ties: the more balanced split); only candidates leaving each child at most `max_leaf_size · 2^(r−1)` triangles (what a subtree
-//!    of depth `r − 1` can hold) are considered, so the depth limit can always be met.
+//!    ties: the more balanced split). Only candidates leaving each child at most
+//!    `max_leaf_size · 2^(r−1)` triangles (what a subtree of depth `r − 1` can hold) are
+//!    considered, so the depth limit can always be met.
 //! 3. `n <= max_leaf_size` and `C_i·n·A <= ` the best split cost (or no candidate): leaf.
 //! 4. Otherwise split at the best candidate, even where a leaf would be cheaper (leaves never
 //!    exceed `max_leaf_size`). With no usable candidate (all centroids equal, a zero-area or
@@ -123,6 +124,9 @@ fn build_tree(
             max_leaf_size: config.max_leaf_size,
             needed,
         });
+    }
+    if n == 0 {
+        return Ok(arena::BuildTree::empty());
     }
     Ok(match config.builder {
         Builder::Binned => binned::build(n, config, &prim_box),

@@ -70,9 +70,7 @@ pub(crate) fn build(
     config: &BvhConfig,
     prim_box: &(impl Fn(usize) -> Aabb + Sync),
 ) -> BuildTree {
-    if n == 0 {
-        return BuildTree::empty();
-    }
+    debug_assert!(n > 0, "build_tree handles the empty scene");
     let boxes: Vec<Box4> = (0..n)
         .into_par_iter()
         .map(|i| Box4::from_aabb(&prim_box(i)))
