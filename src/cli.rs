@@ -103,11 +103,14 @@ pub struct ScenesArgs {
 pub struct BenchArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// Rays per measurement.
+    /// Rays per measurement (taken from the workload at a resolution that yields them).
     #[arg(long, default_value_t = 1_000_000)]
     pub rays: usize,
-    #[arg(long)]
-    pub width: Option<u32>,
-    #[arg(long)]
-    pub height: Option<u32>,
+    /// Also write the measured rays as DIR/{primary,ao,diffuse}.bin (rays.bin format), e.g.
+    /// to time another ray caster on the same rays.
+    #[arg(long, value_name = "DIR")]
+    pub save_rays: Option<PathBuf>,
+    /// Repetitions of each measurement; the fastest is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: u32,
 }

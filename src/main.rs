@@ -6,8 +6,10 @@
 
 mod cli;
 mod commands;
+mod cputime;
 mod progress;
 mod run_config;
+mod session;
 
 use clap::Parser;
 use std::process::ExitCode;

@@ -1,5 +1,4 @@
 //! Progress bars with ETA, drawn only on a terminal (hidden when stderr is not a TTY) and only
-#![allow(dead_code)] // SKELETON: used once the render command lands.
 //! for work expected to take more than a few seconds.
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};

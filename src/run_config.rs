@@ -1,5 +1,4 @@
 //! The configuration tree of a run and how it is assembled from layers.
-#![allow(dead_code)] // SKELETON: used once the render command lands.
 //!
 //! Layer order (later wins): built-in defaults → the scene descriptor's `[workload]` defaults →
 //! `--config FILE` → command-line flags (`--width`, `--seed` …) → `--set key=value`. The result
@@ -116,8 +115,8 @@ pub struct Resolved {
     pub origins: Vec<String>,
 }
 
-/// Assemble the layers for `args` plus extra command-line `flags`, load the scene, and
-/// re-assemble with the scene's workload defaults underneath the user's layers.
+/// Assemble the layers for `args` plus extra command-line `flags`, load the scene (logging
+/// what loading dropped or noticed to stderr), and re-assemble with the scene's workload defaults underneath the user's layers.
 pub fn resolve(args: &SceneArgs, flags: &[Flag]) -> Result<Resolved> {
     let first = layers(args, flags, None)?;
     let config: RunConfig = first.build()?;
@@ -129,6 +128,10 @@ pub fn resolve(args: &SceneArgs, flags: &[Flag]) -> Result<Resolved> {
         scene_dir: scene_dir.as_deref(),
     })
     .with_context(|| format!("loading scene `{}`", config.scene.name))?;
+    // What loading dropped or noticed (zero-area triangles, missing MTL files …).
+    for line in scene.report.log_lines() {
+        eprintln!("note: scene `{}`: {line}", scene.name);
+    }
     let (config, origins) = if scene.workload_defaults.is_empty() {
         (config, first.origins().to_vec())
     } else {
@@ -141,6 +144,17 @@ pub fn resolve(args: &SceneArgs, flags: &[Flag]) -> Result<Resolved> {
     config.workload.width = Some(w);
     config.workload.height = Some(h);
     config.workload.spp = Some(s);
+    if config.workload.ao_radius.is_none() {
+        // Assumed default: 10 % of the scene diagonal when neither the descriptor nor the user
+        // gives a radius (Aila–Laine use per-scene constants, e.g. 5 for Sibenik).
+        let b = scene.bounds();
+        let diag = if b.is_empty() {
+            1.0
+        } else {
+            b.extent().length()
+        };
+        config.workload.ao_radius = Some(0.1 * diag);
+    }
     if config.scene.dir.is_none() {
         config.scene.dir = scene_dir;
     }

@@ -9,9 +9,6 @@ use anyhow::{Context, Result};
 pub fn run(args: ExportArgs) -> Result<()> {
     let r = run_config::resolve(&args.scene, &[])?;
     let scene = &r.scene;
-    for line in scene.report.log_lines() {
-        eprintln!("warning: scene `{}`: {line}", scene.name);
-    }
     rtsim_scene::export::write_triangles_file(&args.out, &scene.triangles)
         .with_context(|| format!("writing {}", args.out.display()))?;
     eprintln!(

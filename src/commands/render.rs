@@ -1,8 +1,171 @@
-//! `rtsim render`. PLACEHOLDER (skeleton).
+//! `rtsim render`: render a frame with the functional tracer and write the image, the heat
+//! map, `stats.json` (deterministic: every counter), `timing.json` (host-dependent) and
+//! `config.resolved.toml`.
 
 use crate::cli::RenderArgs;
-use anyhow::Result;
+use crate::progress;
+use crate::run_config::{self, Flag};
+use crate::session;
+use anyhow::{Context, Result};
+use rtsim_core::output::write_atomic;
+use rtsim_trace::film::write_png;
+use rtsim_trace::{Integrator, WorkloadKind, WorkloadParams, render_frame};
+use serde_json::json;
+use std::time::Instant;
+use toml::Value;
 
-pub fn run(_args: RenderArgs) -> Result<()> {
-    anyhow::bail!("`render` is not built yet")
+pub fn run(args: RenderArgs) -> Result<()> {
+    let mut flags: Vec<Flag> = Vec::new();
+    if let Some(w) = &args.workload {
+        flags.push(("workload.kind", Value::String(w.clone())));
+    }
+    if let Some(w) = args.width {
+        flags.push(("workload.width", Value::Integer(w.into())));
+    }
+    if let Some(h) = args.height {
+        flags.push(("workload.height", Value::Integer(h.into())));
+    }
+    if let Some(s) = args.spp {
+        flags.push(("workload.spp", Value::Integer(s.into())));
+    }
+    if let Some(o) = &args.out {
+        flags.push(("output.dir", Value::String(o.display().to_string())));
+    }
+    let s = session::open(&args.scene, &flags, false)?;
+    let cfg = &s.resolved.config;
+    let scene = &s.resolved.scene;
+    let params = workload_params(&s.resolved);
+    eprintln!(
+        "rtsim render: scene `{}` ({} triangles), workload {:?} {}x{} spp {}, {} threads",
+        scene.name,
+        scene.triangles.len(),
+        params.kind,
+        params.width,
+        params.height,
+        params.spp,
+        s.pool.current_num_threads()
+    );
+    let integ = Integrator::new(scene, &s.tracer, params.clone());
+    let bar = progress::bar(params.height as u64, "render");
+    let start = Instant::now();
+    let frame = s.pool.install(|| render_frame(&integ, &|| bar.inc(1)));
+    let render_seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    let out = &cfg.output.dir;
+    let png = out.join("render.png");
+    write_png(&png, frame.width, frame.height, &frame.to_srgb8(1.0))
+        .with_context(|| format!("writing {}", png.display()))?;
+    let (heat, heat_top) = frame.heatmap_rgb8();
+    if cfg.output.heatmap {
+        let p = out.join("heatmap.png");
+        write_png(&p, frame.width, frame.height, &heat)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    let total = frame.stats.total();
+    let mut kinds = serde_json::Map::new();
+    for (name, c) in frame.stats.by_kind() {
+        kinds.insert(name.into(), serde_json::to_value(c)?);
+    }
+    let bvh = s.tracer.bvh();
+    let stats = json!({
+        "rtsim_version": env!("CARGO_PKG_VERSION"),
+        "scene": {
+            "name": scene.name,
+            "triangles": scene.triangles.len(),
+            "materials": scene.materials.len(),
+            "dropped_degenerate": scene.report.dropped_degenerate,
+            "dropped_non_finite": scene.report.dropped_non_finite,
+            "polygons_triangulated": scene.report.polygons_triangulated,
+        },
+        "bvh": {
+            "nodes": bvh.nodes.len(),
+            "leaves": bvh.nodes.iter().filter(|n| n.is_leaf()).count(),
+            "depth": rtsim_trace::tracer::bvh_depth(bvh),
+        },
+        "workload": {
+            "kind": params.kind,
+            "width": params.width,
+            "height": params.height,
+            "spp": params.spp,
+            "max_depth": params.max_depth,
+            "specular_bounces": params.specular_bounces,
+            "ao_radius": params.ao_radius,
+            "seed": params.seed,
+        },
+        "rays": {
+            "by_kind": kinds,
+            "total": total,
+            "path_segments": if params.kind == WorkloadKind::Path { Some(frame.stats.path_segments()) } else { None },
+        },
+        "heatmap": {
+            "nodes_visited_max": frame.pixels.iter().map(|p| p.nodes_visited).max().unwrap_or(0),
+            "nodes_visited_scale_top": heat_top,
+        },
+    });
+    write_atomic(
+        out.join("stats.json"),
+        serde_json::to_string_pretty(&stats)?.as_bytes(),
+    )
+    .with_context(|| format!("writing {}", out.join("stats.json").display()))?;
+    let timing = json!({
+        "threads": s.pool.current_num_threads(),
+        "bvh_build_seconds": s.build_seconds,
+        "render_seconds": render_seconds,
+        "mrays_per_second": total.rays as f64 / render_seconds.max(1e-9) / 1e6,
+    });
+    write_atomic(
+        out.join("timing.json"),
+        serde_json::to_string_pretty(&timing)?.as_bytes(),
+    )?;
+    write_atomic(
+        out.join("config.resolved.toml"),
+        run_config::resolved_toml(&s.resolved)?.as_bytes(),
+    )?;
+
+    println!(
+        "scene            {} ({} triangles)",
+        scene.name,
+        scene.triangles.len()
+    );
+    println!(
+        "image            {}x{}, {} spp, workload {:?}",
+        params.width, params.height, params.spp, params.kind
+    );
+    for (name, c) in frame.stats.by_kind() {
+        println!(
+            "{name:<16} {:>12} rays  {:>6.2} % hit  {:>7.2} nodes/ray  {:>7.2} tris/ray",
+            c.rays,
+            100.0 * c.hits as f64 / c.rays.max(1) as f64,
+            c.nodes_visited as f64 / c.rays.max(1) as f64,
+            c.tri_tests as f64 / c.rays.max(1) as f64
+        );
+    }
+    if params.kind == WorkloadKind::Path {
+        println!("path segments    {}", frame.stats.path_segments());
+    }
+    println!(
+        "time             BVH {:.3} s, render {:.3} s, {:.2} Mrays/s",
+        s.build_seconds,
+        render_seconds,
+        total.rays as f64 / render_seconds.max(1e-9) / 1e6
+    );
+    println!("wrote            {}", png.display());
+    Ok(())
+}
+
+/// The frame parameters of a resolved run (defaults filled in).
+pub fn workload_params(r: &run_config::Resolved) -> WorkloadParams {
+    let w = &r.config.workload;
+    let (width, height, spp) = w.resolved_size();
+    WorkloadParams {
+        kind: w.kind,
+        width,
+        height,
+        spp,
+        max_depth: w.max_depth,
+        specular_bounces: w.specular_bounces,
+        ao_radius: w.ao_radius.expect("resolve() fills the AO radius"),
+        seed: r.config.seed,
+    }
 }

@@ -121,7 +121,8 @@ pub fn plucker(tri: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHi
     let a = tri[0] - ray.origin;
     let b = tri[1] - ray.origin;
     let c = tri[2] - ray.origin;
-    // Signed volumes: proportional to the barycentric weights of v0, v1, v2.
+    // Signed volumes: proportional to the barycentric weights of v0, v1, v2. Mixed signs:
+    // the ray passes outside an edge.
     let w0 = d.dot(c.cross(b));
     let w1 = d.dot(a.cross(c));
     let w2 = d.dot(b.cross(a));
@@ -130,33 +131,35 @@ pub fn plucker(tri: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHi
     if any_neg && any_pos {
         return None;
     }
-    let det = w0 + w1 + w2;
-    if det == 0.0 {
+    // The plane gives t = n·a / n·d with n = (v1-v0)×(v2-v0) from the edges (the sum of the
+    // signed volumes, mathematically -n·d, loses precision when the origin is far from a small
+    // triangle).
+    let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+    let nd = n.dot(d);
+    if nd == 0.0 {
         return None;
     }
-    // det = -d·n with n = (v1-v0)×(v2-v0), so t = n·a / n·d = -(n·a) / det. Compare t·det with
-    // the interval scaled by det to decide without dividing.
-    let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-    let t_scaled = -n.dot(a);
-    let in_range = if det > 0.0 {
-        t_scaled >= tmin * det && t_scaled < tmax * det
+    let na = n.dot(a);
+    // Decide the interval on t·(n·d), so the divide happens only on a hit.
+    let in_range = if nd > 0.0 {
+        na >= tmin * nd && na < tmax * nd
     } else {
-        t_scaled <= tmin * det && t_scaled > tmax * det
+        na <= tmin * nd && na > tmax * nd
     };
     if !in_range {
         return None;
     }
     // The one divide, on a hit. Re-check the interval after rounding so all kernels share the
     // exact acceptance rule `tmin <= t < tmax`.
-    let inv = 1.0 / det;
-    let t = t_scaled * inv;
+    let inv = 1.0 / nd;
+    let t = na * inv;
     if !(t >= tmin && t < tmax) {
         return None;
     }
     Some(TriHit {
         t,
-        u: w1 * inv,
-        v: w2 * inv,
+        u: -w1 * inv,
+        v: -w2 * inv,
     })
 }
 

@@ -1,0 +1,65 @@
+//! What every tracing command does first: resolve the configuration, load the scene, set up
+//! the thread pool, build the BVH and the tracer, and say what was loaded.
+
+use crate::cli::SceneArgs;
+use crate::run_config::{self, Flag, Resolved};
+use anyhow::{Context, Result};
+use rtsim_trace::fast::FastBvh;
+use rtsim_trace::{Tracer, TriangleTest};
+use std::time::Instant;
+
+/// A loaded scene with its tracer.
+#[derive(Debug)]
+pub struct Session {
+    pub resolved: Resolved,
+    pub tracer: Tracer,
+    pub pool: rayon::ThreadPool,
+    /// The 4-wide fast path, when asked for and enabled (`trace.fast_path` with the
+    /// Möller–Trumbore kernel).
+    pub fast: Option<FastBvh>,
+    /// Wall-clock seconds of the BVH build.
+    pub build_seconds: f64,
+}
+
+/// A rayon pool with `threads` workers (0 = all cores).
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("creating the thread pool")
+}
+
+/// Resolve, load, build.
+pub fn open(args: &SceneArgs, flags: &[Flag], want_fast: bool) -> Result<Session> {
+    let resolved = run_config::resolve(args, flags)?;
+    let scene = &resolved.scene;
+    let pool = thread_pool(resolved.config.threads)?;
+    let start = Instant::now();
+    let cfg = &resolved.config;
+    let bvh = pool.install(|| rtsim_bvh::build(&scene.triangles, &cfg.bvh, cfg.memory.order))?;
+    let build_seconds = start.elapsed().as_secs_f64();
+    let fast = fast_path(&cfg.trace, want_fast, &scene.triangles, &bvh)?;
+    let tracer = Tracer::new(&scene.triangles, bvh, &cfg.trace)?;
+    Ok(Session {
+        resolved,
+        tracer,
+        pool,
+        fast,
+        build_seconds,
+    })
+}
+
+/// The fast path if it is wanted and applies to the configured kernel.
+pub fn fast_path(
+    cfg: &rtsim_trace::TraceConfig,
+    want: bool,
+    triangles: &[[rtsim_core::Vec3; 3]],
+    bvh: &rtsim_bvh::Bvh,
+) -> Result<Option<FastBvh>> {
+    if !(want && cfg.fast_path && cfg.triangle_test == TriangleTest::MollerTrumbore) {
+        return Ok(None);
+    }
+    Ok(Some(
+        FastBvh::new(triangles, bvh).map_err(anyhow::Error::msg)?,
+    ))
+}
