@@ -75,6 +75,10 @@ pub struct OutputConfig {
     pub dir: PathBuf,
     /// Write the nodes-visited heat map PNG. Default true.
     pub heatmap: bool,
+    /// Image exposure: unset = automatic (the frame's log-average luminance is mapped to
+    /// middle grey, then Reinhard's L/(1+L)); a number = linear scale then clamp. AO images
+    /// are always linear (their values are visibility fractions).
+    pub exposure: Option<f32>,
 }
 
 impl Default for OutputConfig {
@@ -82,6 +86,7 @@ impl Default for OutputConfig {
         OutputConfig {
             dir: PathBuf::from("out"),
             heatmap: true,
+            exposure: None,
         }
     }
 }
@@ -94,6 +99,9 @@ impl Validate for RunConfig {
         }
         if self.scene.name.trim().is_empty() {
             return Err(ConfigError::key("scene.name", "must not be empty"));
+        }
+        if let Some(e) = self.output.exposure {
+            rtsim_config::check_positive("output.exposure", e as f64)?;
         }
         self.bvh.validate()?;
         self.memory.validate()?;

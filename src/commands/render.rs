@@ -9,7 +9,7 @@ use crate::session;
 use anyhow::{Context, Result};
 use rtsim_core::output::write_atomic;
 use rtsim_trace::film::write_png;
-use rtsim_trace::{Integrator, WorkloadKind, WorkloadParams, render_frame};
+use rtsim_trace::{Integrator, ToneMap, WorkloadKind, WorkloadParams, render_frame};
 use serde_json::json;
 use std::time::Instant;
 use toml::Value;
@@ -53,8 +53,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     bar.finish_and_clear();
 
     let out = &cfg.output.dir;
+    let tone = match (cfg.output.exposure, params.kind) {
+        (Some(exposure), _) => ToneMap::Linear { exposure },
+        (None, WorkloadKind::Ao) => ToneMap::Linear { exposure: 1.0 },
+        (None, _) => ToneMap::Auto,
+    };
     let png = out.join("render.png");
-    write_png(&png, frame.width, frame.height, &frame.to_srgb8(1.0))
+    write_png(&png, frame.width, frame.height, &frame.to_srgb8(tone))
         .with_context(|| format!("writing {}", png.display()))?;
     let (heat, heat_top) = frame.heatmap_rgb8();
     if cfg.output.heatmap {

@@ -3,7 +3,6 @@
 
 use crate::workload::{FrameStats, Integrator, PixelResult};
 use rayon::prelude::*;
-use rtsim_core::Vec3;
 use rtsim_core::output::AtomicFile;
 use std::io;
 use std::path::Path;
@@ -49,6 +48,19 @@ pub fn render_frame(integ: &Integrator<'_>, progress: &(dyn Fn() + Sync)) -> Fra
     }
 }
 
+/// How linear radiance becomes display values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ToneMap {
+    /// Multiply by `exposure`, then clamp to [0, 1] (AO images: 1 is white).
+    Linear { exposure: f32 },
+    /// Scale the frame's log-average luminance to the middle-grey key, then compress with
+    /// Reinhard's `L / (1 + L)`: well exposed whatever the light's intensity.
+    Auto,
+}
+
+/// Middle grey (Reinhard et al. 2002, §3.1).
+const AUTO_KEY: f32 = 0.18;
+
 /// Linear value to an 8-bit sRGB code (IEC 61966-2-1 transfer function), clamping to [0, 1].
 #[inline]
 pub fn linear_to_srgb8(v: f32) -> u8 {
@@ -66,19 +78,43 @@ pub fn linear_to_srgb8(v: f32) -> u8 {
 }
 
 impl Frame {
-    /// Tone-mapped 8-bit sRGB pixels: `exposure` scales linear radiance, then values are
-    /// clamped (no curve, so a value of 1 is white, matching AO images exactly).
-    pub fn to_srgb8(&self, exposure: f32) -> Vec<u8> {
+    /// Tone-mapped 8-bit sRGB pixels.
+    pub fn to_srgb8(&self, tone: ToneMap) -> Vec<u8> {
+        let (scale, curve) = match tone {
+            ToneMap::Linear { exposure } => (exposure, false),
+            ToneMap::Auto => (AUTO_KEY / self.log_average_luminance(), true),
+        };
+        let map = |v: f32| {
+            let v = v * scale;
+            linear_to_srgb8(if curve { v / (1.0 + v) } else { v })
+        };
         let mut out = Vec::with_capacity(self.pixels.len() * 3);
         for p in &self.pixels {
-            let c: Vec3 = p.color * exposure;
-            out.extend([
-                linear_to_srgb8(c.x),
-                linear_to_srgb8(c.y),
-                linear_to_srgb8(c.z),
-            ]);
+            out.extend([map(p.color.x), map(p.color.y), map(p.color.z)]);
         }
         out
+    }
+
+    /// Geometric mean of pixel luminance (Rec. 709 weights), the "key" of Reinhard et al.,
+    /// "Photographic Tone Reproduction for Digital Images", SIGGRAPH 2002, eq. 1; 1 for an
+    /// all-black frame.
+    pub fn log_average_luminance(&self) -> f32 {
+        // δ avoids log(0) for black pixels (Reinhard's small value).
+        const DELTA: f64 = 1e-4;
+        if self.pixels.is_empty() {
+            return 1.0;
+        }
+        let sum: f64 = self
+            .pixels
+            .iter()
+            .map(|p| {
+                let c = p.color;
+                let l = (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z).max(0.0) as f64;
+                (DELTA + if l.is_finite() { l } else { 0.0 }).ln()
+            })
+            .sum();
+        let avg = (sum / self.pixels.len() as f64).exp() as f32;
+        if avg > DELTA as f32 * 1.01 { avg } else { 1.0 }
     }
 
     /// Heat map of nodes visited per pixel, normalised to the 99th percentile (so a few
@@ -139,6 +175,7 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> io::Result
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rtsim_core::Vec3;
 
     #[test]
     fn srgb_endpoints_and_midpoint() {
@@ -147,6 +184,42 @@ mod tests {
         assert_eq!(linear_to_srgb8(2.0), 255);
         assert_eq!(linear_to_srgb8(f32::NAN), 0);
         assert_eq!(linear_to_srgb8(0.2159), 128); // sRGB 128/255 is linear 0.2159
+    }
+
+    fn frame(colors: &[f32]) -> Frame {
+        Frame {
+            width: colors.len() as u32,
+            height: 1,
+            pixels: colors
+                .iter()
+                .map(|&c| PixelResult {
+                    color: Vec3::splat(c),
+                    nodes_visited: 0,
+                })
+                .collect(),
+            stats: FrameStats::default(),
+        }
+    }
+
+    #[test]
+    fn auto_exposure_is_scale_invariant() {
+        let a = frame(&[0.1, 0.5, 2.0, 8.0]).to_srgb8(ToneMap::Auto);
+        let b = frame(&[1.0, 5.0, 20.0, 80.0]).to_srgb8(ToneMap::Auto);
+        for (x, y) in a.iter().zip(&b) {
+            assert!((*x as i32 - *y as i32).abs() <= 1);
+        }
+        // The log-average pixel lands on middle grey compressed: 0.18 / 1.18.
+        let f = frame(&[1.0, 1.0]);
+        assert_eq!(f.to_srgb8(ToneMap::Auto)[0], linear_to_srgb8(0.18 / 1.18));
+        assert_eq!(frame(&[0.0, 0.0]).to_srgb8(ToneMap::Auto)[0], 0);
+    }
+
+    #[test]
+    fn linear_clamps() {
+        assert_eq!(
+            frame(&[0.5, 2.0]).to_srgb8(ToneMap::Linear { exposure: 1.0 })[3],
+            255
+        );
     }
 
     #[test]

@@ -29,7 +29,7 @@ pub mod workload;
 
 pub use config::{TraceConfig, TraversalOrder, TriangleTest, WorkloadConfig, WorkloadKind};
 pub use counters::{CounterTotals, RayCounters};
-pub use film::{Frame, render_frame};
+pub use film::{Frame, ToneMap, render_frame};
 pub use kernels::TriKernel;
 pub use tracer::{Hit, NO_HIT, Tracer, TracerError, brute_force_closest};
 pub use workload::{FrameStats, Integrator, PixelResult, WorkloadParams};
