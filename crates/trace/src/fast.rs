@@ -38,8 +38,8 @@ const STACK: usize = 1024;
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct Node8 {
-    min: [[f32; W]; 3],
-    max: [[f32; W]; 3],
+    /// `bounds[axis][0]` = the children's minima, `bounds[axis][1]` = their maxima.
+    bounds: [[[f32; W]; 2]; 3],
     child: [u32; W],
     /// Bit `i` set when lane `i` holds a child (empty lanes have inverted boxes, which the
     /// slab test would see as everything).
@@ -109,8 +109,8 @@ impl FastBvh {
             for (lane, &k) in kids.iter().enumerate() {
                 let b = &bvh.nodes[k];
                 for a in 0..3 {
-                    node.min[a][lane] = b.bounds.min[a];
-                    node.max[a][lane] = b.bounds.max[a];
+                    node.bounds[a][0][lane] = b.bounds.min[a];
+                    node.bounds[a][1][lane] = b.bounds.max[a];
                 }
                 node.valid |= 1 << lane;
                 node.child[lane] = if is_leaf(k) {
@@ -222,6 +222,8 @@ impl FastBvh {
             return hit;
         }
         let rb = RayBox::new(ray);
+        // Per axis, which bound the ray meets first (1: the maximum, for negative directions).
+        let near_side = [0, 1, 2].map(|a| (rb.inv_dir[a] < 0.0) as usize);
         // Uninitialised: zeroing 8 KB per ray would cost more than the traversal.
         let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
         let mut sp = 0usize;
@@ -230,7 +232,7 @@ impl FastBvh {
             // Inner node: eight box tests, then descend into the nearest hit child and push
             // the others far-to-near.
             let node = &self.nodes[cur as usize];
-            let (mut mask, tnear) = B::test(node, &rb, ray.tmin, hit.t);
+            let (mut mask, tnear) = B::test(node, &rb, &near_side, ray.tmin, hit.t);
             let mut next = None;
             if mask != 0 {
                 let first = mask.trailing_zeros() as usize;
@@ -238,6 +240,19 @@ impl FastBvh {
                 if mask == 0 {
                     // One child hit: no sorting.
                     next = Some(node.child[first]);
+                } else if mask & (mask - 1) == 0 {
+                    // Two children hit (the common case): descend into the nearer, push the
+                    // other (the lower lane first on ties, as the general sort).
+                    let second = mask.trailing_zeros() as usize;
+                    let (a, b) = (
+                        (tnear[first], node.child[first]),
+                        (tnear[second], node.child[second]),
+                    );
+                    let (near, far) = if b.0 < a.0 { (b, a) } else { (a, b) };
+                    stack[sp].write((far.1, far.0));
+                    sp += 1;
+                    self.prefetch(far.1);
+                    next = Some(near.1);
                 } else {
                     let mut order = [(0f32, 0u32); W];
                     order[0] = (tnear[first], node.child[first]);
@@ -259,6 +274,9 @@ impl FastBvh {
                         stack[sp].write((c, t));
                         sp += 1;
                     }
+                    // The next entry to pop is the second nearest child: start fetching it
+                    // while the nearest subtree is traversed.
+                    self.prefetch(order[1].1);
                     next = Some(order[0].1);
                 }
             }
@@ -288,6 +306,32 @@ impl FastBvh {
                 }
             }
         }
+    }
+
+    /// Hint the cache to fetch the record of child reference `c` (a node or a leaf's first
+    /// packet).
+    #[inline(always)]
+    fn prefetch(&self, c: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let (ptr, lines) = if c & LEAF == 0 {
+                (self.nodes.as_ptr().wrapping_add(c as usize) as *const i8, 4)
+            } else {
+                (
+                    self.packets
+                        .as_ptr()
+                        .wrapping_add((c & FIRST_MASK) as usize) as *const i8,
+                    3,
+                )
+            };
+            for l in 0..lines {
+                // SAFETY: prefetching is a hint and never faults, even for a bad address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(ptr.wrapping_add(64 * l)) };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = c;
     }
 
     #[inline(always)]
@@ -323,8 +367,7 @@ fn cpu_has_avx() -> bool {
 
 fn empty_node() -> Node8 {
     Node8 {
-        min: [[f32::INFINITY; W]; 3],
-        max: [[f32::NEG_INFINITY; W]; 3],
+        bounds: [[[f32::INFINITY; W], [f32::NEG_INFINITY; W]]; 3],
         child: [EMPTY; W],
         valid: 0,
     }
@@ -370,21 +413,14 @@ fn open_children(bvh: &Bvh, bi: usize, is_leaf: &dyn Fn(usize) -> bool) -> Vec<u
 
 /// Eight slab tests: the hit mask and the entry distances. Same arithmetic per lane as
 /// [`slab_test`](crate::kernels::slab_test).
+///
+/// `near_side[a]` says which bound the ray meets first on axis `a`: 0 (the minimum) for a
+/// positive direction, 1 (the maximum) for a negative one. Since `(min - o) · inv <=
+/// (max - o) · inv` for `inv >= 0` (rounding is monotonic), reading the near and far bounds
+/// directly gives exactly the slab test's `min(t0, t1)` and `max(t0, t1)`.
 trait Box8 {
-    fn test(n: &Node8, r: &RayBox, tmin: f32, tmax: f32) -> (u32, [f32; W]);
-}
-
-/// For each axis, the bounds that the ray meets first: `(min, max)` when the direction is
-/// positive, `(max, min)` when negative. Since `(min - o) · inv <= (max - o) · inv` for
-/// `inv >= 0` (rounding is monotonic), this gives exactly the slab test's `min(t0, t1)` and
-/// `max(t0, t1)` without computing them.
-#[inline(always)]
-fn near_far<'a>(n: &'a Node8, r: &RayBox, a: usize) -> (&'a [f32; W], &'a [f32; W]) {
-    if r.inv_dir[a] < 0.0 {
-        (&n.max[a], &n.min[a])
-    } else {
-        (&n.min[a], &n.max[a])
-    }
+    fn test(n: &Node8, r: &RayBox, near_side: &[usize; 3], tmin: f32, tmax: f32)
+    -> (u32, [f32; W]);
 }
 
 /// Scalar lanes: the reference for the AVX version and the path without AVX.
@@ -392,14 +428,20 @@ struct Portable;
 
 impl Box8 for Portable {
     #[inline(always)]
-    fn test(n: &Node8, r: &RayBox, tmin: f32, tmax: f32) -> (u32, [f32; W]) {
+    fn test(
+        n: &Node8,
+        r: &RayBox,
+        _near_side: &[usize; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> (u32, [f32; W]) {
         let mut near = [tmin; W];
         let mut far = [tmax; W];
         for a in 0..3 {
             let (o, inv) = (r.origin[a], r.inv_dir[a]);
             for l in 0..W {
-                let t0 = (n.min[a][l] - o) * inv;
-                let t1 = (n.max[a][l] - o) * inv;
+                let t0 = (n.bounds[a][0][l] - o) * inv;
+                let t1 = (n.bounds[a][1][l] - o) * inv;
                 near[l] = near[l].max(t0.min(t1));
                 far[l] = far[l].min(t0.max(t1));
             }
@@ -423,23 +465,37 @@ mod avx {
 
     impl Box8 for Avx {
         #[inline(always)]
-        fn test(n: &Node8, r: &RayBox, tmin: f32, tmax: f32) -> (u32, [f32; W]) {
+        fn test(
+            n: &Node8,
+            r: &RayBox,
+            near_side: &[usize; 3],
+            tmin: f32,
+            tmax: f32,
+        ) -> (u32, [f32; W]) {
             // SAFETY: only instantiated inside `traverse_avx`, which requires AVX; `Node8` is
             // 64-byte aligned and its arrays start at multiples of 32 bytes.
-            unsafe { box8(n, r, tmin, tmax) }
+            unsafe { box8(n, r, near_side, tmin, tmax) }
         }
     }
 
     #[inline]
     #[target_feature(enable = "avx")]
-    unsafe fn box8(n: &Node8, r: &RayBox, tmin: f32, tmax: f32) -> (u32, [f32; W]) {
+    unsafe fn box8(
+        n: &Node8,
+        r: &RayBox,
+        near_side: &[usize; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> (u32, [f32; W]) {
         unsafe {
             let mut near = _mm256_set1_ps(tmin);
             let mut far = _mm256_set1_ps(tmax);
             for a in 0..3 {
                 let o = _mm256_set1_ps(r.origin[a]);
                 let inv = _mm256_set1_ps(r.inv_dir[a]);
-                let (lo, hi) = near_far(n, r, a);
+                let side = near_side[a] & 1;
+                let lo = &n.bounds[a][side];
+                let hi = &n.bounds[a][side ^ 1];
                 let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(lo.as_ptr()), o), inv);
                 let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(hi.as_ptr()), o), inv);
                 near = _mm256_max_ps(near, t0);
@@ -634,8 +690,9 @@ mod tests {
                 let rb = RayBox::new(r);
                 for n in &fast.nodes {
                     // SAFETY: the CPU has AVX.
-                    let (mask, near) = unsafe { avx_box(n, &rb, r.tmin, r.tmax) };
-                    let (pmask, pnear) = Portable::test(n, &rb, r.tmin, r.tmax);
+                    let side = [0, 1, 2].map(|a| (rb.inv_dir[a] < 0.0) as usize);
+                    let (mask, near) = unsafe { avx_box(n, &rb, &side, r.tmin, r.tmax) };
+                    let (pmask, pnear) = Portable::test(n, &rb, &side, r.tmin, r.tmax);
                     assert_eq!(mask, pmask);
                     // Entry distances matter only for lanes that were hit.
                     for l in (0..W).filter(|l| mask & (1 << l) != 0) {
@@ -660,8 +717,14 @@ mod tests {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn avx_box(n: &Node8, rb: &RayBox, tmin: f32, tmax: f32) -> (u32, [f32; W]) {
-        <avx::Avx as Box8>::test(n, rb, tmin, tmax)
+    unsafe fn avx_box(
+        n: &Node8,
+        rb: &RayBox,
+        side: &[usize; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> (u32, [f32; W]) {
+        <avx::Avx as Box8>::test(n, rb, side, tmin, tmax)
     }
 
     #[test]
