@@ -490,10 +490,10 @@ mod avx {
         unsafe {
             let mut near = _mm256_set1_ps(tmin);
             let mut far = _mm256_set1_ps(tmax);
-            for a in 0..3 {
+            for (a, &side) in near_side.iter().enumerate() {
                 let o = _mm256_set1_ps(r.origin[a]);
                 let inv = _mm256_set1_ps(r.inv_dir[a]);
-                let side = near_side[a] & 1;
+                let side = side & 1;
                 let lo = &n.bounds[a][side];
                 let hi = &n.bounds[a][side ^ 1];
                 let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(lo.as_ptr()), o), inv);
