@@ -1,6 +1,6 @@
 //! `rtsim bench`: BVH build time and tracing throughput (Mrays/s) for primary, AO and diffuse
 //! rays, on one thread and on all cores, for the reference traversal (with counters) and the
-//! 4-wide fast path. Rays are generated first, exactly as the workloads trace them, then timed
+//! 8-wide fast path. Rays are generated first, exactly as the workloads trace them, then timed
 //! in isolation; each measurement is repeated and the fastest kept.
 
 use crate::cli::BenchArgs;
@@ -51,7 +51,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let tracer = Tracer::new(&scene.triangles, bvh, &cfg.trace)?;
 
     println!(
-        "Mrays/s: reference binary-BVH traversal (with counters), 4-wide fast path (no counters)"
+        "Mrays/s: reference binary-BVH traversal (with counters), 8-wide fast path (no counters)"
     );
     println!(
         "{:<8} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9}",

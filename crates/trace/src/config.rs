@@ -37,7 +37,7 @@ pub struct TraceConfig {
     /// Any-hit (shadow/AO) rays stop at the first hit. Default true; SimTRaX's sample tracer
     /// used `order = "left-first"` with `early_exit = false`.
     pub early_exit: bool,
-    /// `rtsim trace` and `rtsim bench` use the 4-wide fast path when the kernel is
+    /// `rtsim trace` and `rtsim bench` use the 8-wide fast path when the kernel is
     /// `moller-trumbore` (same hits, bit-identical t/u/v, no counters). Default true.
     pub fast_path: bool,
 }

@@ -223,7 +223,11 @@ impl FastBvh {
         }
         let rb = RayBox::new(ray);
         // Per axis, which bound the ray meets first (1: the maximum, for negative directions).
-        let near_side = [0, 1, 2].map(|a| (rb.inv_dir[a] < 0.0) as usize);
+        let near_side = [
+            (rb.inv_dir.x < 0.0) as usize,
+            (rb.inv_dir.y < 0.0) as usize,
+            (rb.inv_dir.z < 0.0) as usize,
+        ];
         // Uninitialised: zeroing 8 KB per ray would cost more than the traversal.
         let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
         let mut sp = 0usize;
@@ -239,6 +243,16 @@ impl FastBvh {
                 mask &= mask - 1;
                 if mask == 0 {
                     // One child hit: no sorting.
+                    next = Some(node.child[first]);
+                } else if ANY {
+                    // Occlusion: any order finds a hit; skip sorting (as Embree's occluded
+                    // traversal does).
+                    while mask != 0 {
+                        let lane = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack[sp].write((node.child[lane], tnear[lane]));
+                        sp += 1;
+                    }
                     next = Some(node.child[first]);
                 } else if mask & (mask - 1) == 0 {
                     // Two children hit (the common case): descend into the nearer, push the
@@ -598,24 +612,34 @@ mod sse {
             let sy = _mm_sub_ps(_mm_set1_ps(o.y), ld(&p.v0[1]));
             let sz = _mm_sub_ps(_mm_set1_ps(o.z), ld(&p.v0[2]));
             let u = _mm_mul_ps(dot(sx, sy, sz, px, py, pz), inv);
+            let zero = _mm_setzero_ps();
+            let one = _mm_set1_ps(1.0);
+            // Staged: most lanes fail on u, so test it before computing v and t (the values
+            // and the acceptance rule are unchanged, only evaluated lazily).
+            let ok_u = _mm_and_ps(
+                _mm_cmpneq_ps(det, zero),
+                _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmple_ps(u, one)),
+            );
+            if _mm_movemask_ps(ok_u) == 0 {
+                return None;
+            }
             let qx = _mm_sub_ps(_mm_mul_ps(sy, e1z), _mm_mul_ps(sz, e1y));
             let qy = _mm_sub_ps(_mm_mul_ps(sz, e1x), _mm_mul_ps(sx, e1z));
             let qz = _mm_sub_ps(_mm_mul_ps(sx, e1y), _mm_mul_ps(sy, e1x));
             let v = _mm_mul_ps(dot(dx, dy, dz, qx, qy, qz), inv);
+            let ok_uv = _mm_and_ps(
+                ok_u,
+                _mm_and_ps(_mm_cmpge_ps(v, zero), _mm_cmple_ps(_mm_add_ps(u, v), one)),
+            );
+            if _mm_movemask_ps(ok_uv) == 0 {
+                return None;
+            }
             let t = _mm_mul_ps(dot(e2x, e2y, e2z, qx, qy, qz), inv);
-            let zero = _mm_setzero_ps();
-            let one = _mm_set1_ps(1.0);
             let ok = _mm_and_ps(
+                ok_uv,
                 _mm_and_ps(
-                    _mm_and_ps(_mm_cmpneq_ps(det, zero), _mm_cmpge_ps(u, zero)),
-                    _mm_and_ps(_mm_cmple_ps(u, one), _mm_cmpge_ps(v, zero)),
-                ),
-                _mm_and_ps(
-                    _mm_cmple_ps(_mm_add_ps(u, v), one),
-                    _mm_and_ps(
-                        _mm_cmpge_ps(t, _mm_set1_ps(tmin)),
-                        _mm_cmplt_ps(t, _mm_set1_ps(tmax)),
-                    ),
+                    _mm_cmpge_ps(t, _mm_set1_ps(tmin)),
+                    _mm_cmplt_ps(t, _mm_set1_ps(tmax)),
                 ),
             );
             let okm = _mm_movemask_ps(ok) as u32;
