@@ -134,6 +134,16 @@ impl Validate for WorkloadConfig {
         check_range("workload.width", w, 1, 16384)?;
         check_range("workload.height", h, 1, 16384)?;
         check_range("workload.spp", s, 1, 4096)?;
+        // Assumed limit: 64 M pixels (8192²) keeps the frame buffers (16 B per pixel) around
+        // 1 GB; larger images are better rendered in tiles by separate runs.
+        let pixels = w as u64 * h as u64;
+        if pixels > 1 << 26 {
+            return Err(ConfigError::range(
+                "workload.width × workload.height",
+                pixels,
+                "at most 67108864 (8192²)",
+            ));
+        }
         check_range("workload.max_depth", self.max_depth, 1, 64)?;
         check_range("workload.specular_bounces", self.specular_bounces, 0, 64)?;
         if let Some(r) = self.ao_radius {
