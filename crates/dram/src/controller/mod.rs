@@ -180,6 +180,8 @@ impl Channel {
         self.update_mode(t);
         if let Some(c) = self.choose(t) {
             self.issue(c, t);
+            // Serving a request changes the queue lengths the drain mode depends on.
+            self.update_mode(t + 1);
         }
         self.done_below = t + 1;
         self.next_event = self.compute_next_event(t + 1);
