@@ -173,7 +173,8 @@ pub struct Currents {
     pub vdd: f64,
     /// One-bank ACT-PRE current (tRC cycling). Default 120.
     pub idd0: f64,
-    /// Precharge power-down current, slow exit (DLL off). Default 12.
+    /// Precharge power-down current, slow exit (DLL off). Recorded from the datasheet for
+    /// completeness; the model has only fast-exit power-down, so it is not used. Default 12.
     pub idd2p0: f64,
     /// Precharge power-down current, fast exit (DLL on). Used for precharge power-down.
     /// Default 45.
