@@ -242,6 +242,10 @@ pub struct ControllerConfig {
     /// request for another row of that bank waits, hits lose their priority. 0 = no cap (as in
     /// USIMM and DRAMsim3). Default 0.
     pub row_hit_cap: u32,
+    /// FR-FCFS: never close a row while queued requests hit it (true, as DRAMsim3), or let a
+    /// ready PRE for an older conflicting request close it when none of its hits can issue this
+    /// cycle (false, USIMM 1.3's FR-FCFS). Default true.
+    pub protect_row_hits: bool,
     /// `open` or `closed`. Default `open`.
     pub row_policy: RowPolicyKind,
     /// Write-drain mode starts when the write queue holds at least this many writes; writes are
@@ -381,6 +385,7 @@ impl Default for ControllerConfig {
             write_queue: 96,
             scheduler: SchedulerKind::FrFcfs,
             row_hit_cap: 0,
+            protect_row_hits: true,
             row_policy: RowPolicyKind::Open,
             write_high_watermark: 40,
             write_low_watermark: 20,

@@ -49,9 +49,14 @@ pub struct Latencies {
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct HitRates {
+    /// Column reads that needed no ACT of their own.
     pub reads: f64,
     pub writes: f64,
     pub all: f64,
+    /// USIMM's definition, 1 − ACTs for reads / column reads (charges rows opened and closed
+    /// again before use); compare with USIMM's "Read Page Hit Rate".
+    pub reads_by_activates: f64,
+    pub writes_by_activates: f64,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -177,6 +182,8 @@ impl Report {
                 reads: s.read_row_hit_rate(),
                 writes: s.write_row_hit_rate(),
                 all: s.row_hit_rate(),
+                reads_by_activates: s.read_row_hit_rate_by_activates(),
+                writes_by_activates: s.write_row_hit_rate_by_activates(),
             },
             read_latency: latencies(&s.read_latency_mem, &s.read_latency_req, spec),
             write_latency: latencies(&s.write_latency_mem, &s.write_latency_req, spec),
@@ -278,6 +285,15 @@ impl Report {
                 100.0 * self.row_hit_rate.reads,
                 100.0 * self.row_hit_rate.writes,
                 100.0 * self.row_hit_rate.all
+            ),
+        );
+        row(
+            &mut o,
+            "  by ACT count (USIMM)",
+            format!(
+                "reads {:.1} %, writes {:.1} %",
+                100.0 * self.row_hit_rate.reads_by_activates,
+                100.0 * self.row_hit_rate.writes_by_activates
             ),
         );
         let l = &self.read_latency;

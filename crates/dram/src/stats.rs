@@ -40,6 +40,11 @@ pub struct DramStats {
 
     /// ACT commands.
     pub activates: u64,
+    /// ACTs issued for a read request (with `activates_for_writes`, all ACTs but none: refresh
+    /// never activates). A row opened and closed again before its request was served counts
+    /// twice, which USIMM's hit-rate definition charges to the hit rate.
+    pub activates_for_reads: u64,
+    pub activates_for_writes: u64,
     /// PRE commands issued for requests (row conflicts, or the row-hit cap).
     pub precharges: u64,
     /// PRE commands issued to prepare a refresh.
@@ -112,6 +117,22 @@ impl DramStats {
     pub fn write_row_hit_rate(&self) -> f64 {
         ratio(self.write_row_hits as f64, self.column_writes as f64)
     }
+    /// USIMM's definition: 1 − ACTs for reads / column reads (can be negative when rows are
+    /// opened and closed again before use).
+    pub fn read_row_hit_rate_by_activates(&self) -> f64 {
+        by_activates(self.activates_for_reads, self.column_reads)
+    }
+    pub fn write_row_hit_rate_by_activates(&self) -> f64 {
+        by_activates(self.activates_for_writes, self.column_writes)
+    }
+}
+
+fn by_activates(acts: u64, accesses: u64) -> f64 {
+    if accesses == 0 {
+        0.0
+    } else {
+        1.0 - acts as f64 / accesses as f64
+    }
 }
 
 impl AddAssign<&DramStats> for DramStats {
@@ -132,6 +153,8 @@ impl AddAssign<&DramStats> for DramStats {
         self.write_row_misses += o.write_row_misses;
         self.write_row_conflicts += o.write_row_conflicts;
         self.activates += o.activates;
+        self.activates_for_reads += o.activates_for_reads;
+        self.activates_for_writes += o.activates_for_writes;
         self.precharges += o.precharges;
         self.refresh_precharges += o.refresh_precharges;
         self.auto_precharges += o.auto_precharges;

@@ -49,6 +49,9 @@ pub struct Channel {
     /// Each bank's offer (valid where `has` is set), recomputed lazily for `dirty` banks.
     cands: Vec<Candidate>,
     has: BankSet,
+    /// Alternative offers (PRE behind a row hit; only without row-hit protection).
+    alts: Vec<Candidate>,
+    has_alt: BankSet,
     dirty: Vec<bool>,
     dirty_list: Vec<u32>,
     sched: Vec<BankSched>,
@@ -96,6 +99,8 @@ impl Channel {
             ctl,
             cands: vec![Candidate::NONE; banks],
             has: BankSet::new(banks),
+            alts: vec![Candidate::NONE; banks],
+            has_alt: BankSet::new(banks),
             dirty: vec![true; banks],
             dirty_list: (0..banks as u32).collect(),
             sched: vec![BankSched::default(); banks],
@@ -287,12 +292,30 @@ impl Channel {
                     self.engine.open_row(b),
                 )
             };
+            let alt = match offer {
+                Some(c) if c.hit && !self.ctl.protect_row_hits => {
+                    let op = if self.write_mode {
+                        MemOp::Write
+                    } else {
+                        MemOp::Read
+                    };
+                    scheduler::bank_alternative(&self.q, b, op, self.engine.open_row(b))
+                }
+                _ => None,
+            };
             match offer {
                 Some(c) => {
                     self.cands[b] = c;
                     self.has.insert(b);
                 }
                 None => self.has.remove(b),
+            }
+            match alt {
+                Some(a) => {
+                    self.alts[b] = a;
+                    self.has_alt.insert(b);
+                }
+                None => self.has_alt.remove(b),
             }
         }
     }
@@ -354,17 +377,23 @@ impl Channel {
         // Requests.
         self.settle_candidates();
         let kind = self.ctl.scheduler;
-        let mut best: Option<usize> = None;
+        let mut best: Option<(usize, Candidate)> = None;
         for b in self.has.iter() {
-            let c = &self.cands[b];
-            if self.engine.earliest_bank(c.kind.into(), b) <= t
-                && best.is_none_or(|w| scheduler::wins(kind, c, &self.cands[w]))
-            {
-                best = Some(b);
+            let mut c = self.cands[b];
+            if self.engine.earliest_bank(c.kind.into(), b) > t {
+                // The hit cannot issue; without row-hit protection its PRE alternative may.
+                if !self.has_alt.contains(b)
+                    || self.engine.earliest_bank(self.alts[b].kind.into(), b) > t
+                {
+                    continue;
+                }
+                c = self.alts[b];
+            }
+            if best.is_none_or(|(_, w)| scheduler::wins(kind, &c, &w)) {
+                best = Some((b, c));
             }
         }
-        if let Some(b) = best {
-            let c = self.cands[b];
+        if let Some((b, c)) = best {
             return Some(Choice {
                 cmd: c.cmd,
                 bank: b,
@@ -409,7 +438,12 @@ impl Channel {
         match cmd {
             Cmd::Act => {
                 self.stats.activates += 1;
-                self.q.get_mut(c.slot).act_for = true;
+                let e = self.q.get_mut(c.slot);
+                e.act_for = true;
+                match e.op {
+                    MemOp::Read => self.stats.activates_for_reads += 1,
+                    MemOp::Write => self.stats.activates_for_writes += 1,
+                }
                 self.sched[b] = BankSched::default();
                 self.power[rank].open(t);
             }
@@ -559,6 +593,9 @@ impl Channel {
         for b in self.has.iter() {
             e = e.min(self.engine.earliest_bank(self.cands[b].kind.into(), b));
         }
+        for b in self.has_alt.iter() {
+            e = e.min(self.engine.earliest_bank(self.alts[b].kind.into(), b));
+        }
         if e == u64::MAX { e } else { e.max(from) }
     }
 
@@ -628,6 +665,10 @@ impl BankSet {
     #[inline]
     fn remove(&mut self, b: usize) {
         self.words[b / 64] &= !(1 << (b % 64));
+    }
+    #[inline]
+    fn contains(&self, b: usize) -> bool {
+        self.words[b / 64] & (1 << (b % 64)) != 0
     }
     #[inline]
     fn iter(&self) -> impl Iterator<Item = usize> + '_ {

@@ -8,6 +8,10 @@
 //!   for the oldest request that misses;
 //! - open bank, FCFS: the oldest request's command (column access if it hits, else PRE).
 //!
+//! With `protect_row_hits = false` (USIMM's FR-FCFS) an open bank whose offer is a row hit also
+//! has an *alternative*: the PRE for its oldest missing request, considered when the hit cannot
+//! issue this cycle.
+//!
 //! Among the candidates that are ready this cycle, FR-FCFS takes row hits first, then the
 //! oldest; FCFS takes the oldest.
 
@@ -60,6 +64,30 @@ impl Default for BankSched {
             pre_target: NIL,
         }
     }
+}
+
+/// The alternative offer of an open bank whose offer is a row hit: a PRE for the oldest request
+/// that misses (FR-FCFS without row-hit protection), or `None`.
+pub fn bank_alternative(
+    q: &RequestQueues,
+    b: usize,
+    op: MemOp,
+    open_row: u32,
+) -> Option<Candidate> {
+    let list = match op {
+        MemOp::Read => &q.reads[b],
+        MemOp::Write => &q.writes[b],
+    };
+    let m = list.iter().copied().find(|&s| q.get(s).row != open_row)?;
+    let e = q.get(m);
+    Some(Candidate {
+        cmd: Cmd::Pre,
+        kind: Cmd::Pre.kind() as u8,
+        slot: m,
+        hit: false,
+        seq: e.seq,
+        row: e.row,
+    })
 }
 
 /// The candidate of bank `b` when serving `op` requests, with `open_row` open (or CLOSED).
