@@ -44,6 +44,9 @@ pub struct Engine {
     group_next: Vec<[u64; BK]>,
     rank_next: Vec<[u64; K]>,
     chan_next: [u64; K],
+    /// For each issued command, a bit per next-command kind whose earliest time it can raise
+    /// beyond its own bank (bank group, rank, other ranks, channel, activation windows).
+    shared_raise: Vec<u8>,
     /// Rank and bank-group index of each flat bank.
     rank_of: Vec<u32>,
     group_of: Vec<u32>,
@@ -86,7 +89,19 @@ impl Engine {
                 }
             }
         }
+        let mut shared_raise = vec![0u8; Cmd::ALL.len()];
+        for issued in Cmd::ALL {
+            for c in &by_prev[issued as usize] {
+                if c.scope != Scope::Bank {
+                    shared_raise[issued as usize] |= 1 << c.next.kind();
+                }
+            }
+        }
+        if !windows.is_empty() {
+            shared_raise[Cmd::Act as usize] |= 1 << Cmd::Act.kind();
+        }
         Engine {
+            shared_raise,
             ranks,
             banks_per_rank,
             by_prev,
@@ -216,6 +231,13 @@ impl Engine {
             Cmd::Pdx => self.powered_down[rank] = false,
             Cmd::Rd | Cmd::Wr | Cmd::Ref => {}
         }
+    }
+
+    /// Kinds (bit `1 << kind`) whose earliest time at banks other than its own issuing `cmd`
+    /// may raise: the scheduler recomputes only offers of these kinds after an issue.
+    #[inline]
+    pub fn shared_raise(&self, cmd: Cmd) -> u8 {
+        self.shared_raise[cmd as usize]
     }
 
     /// The open row of flat bank `b`, or [`CLOSED`].

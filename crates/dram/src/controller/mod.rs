@@ -52,6 +52,10 @@ pub struct Channel {
     /// Alternative offers (PRE behind a row hit; only without row-hit protection).
     alts: Vec<Candidate>,
     has_alt: BankSet,
+    /// Earliest legal cycle of each offer and alternative, kept current: recomputed when the
+    /// offer changes and, after each command, for offers of a kind that command can delay.
+    ready: Vec<u64>,
+    alt_ready: Vec<u64>,
     dirty: Vec<bool>,
     dirty_list: Vec<u32>,
     sched: Vec<BankSched>,
@@ -101,6 +105,8 @@ impl Channel {
             has: BankSet::new(banks),
             alts: vec![Candidate::NONE; banks],
             has_alt: BankSet::new(banks),
+            ready: vec![u64::MAX; banks],
+            alt_ready: vec![u64::MAX; banks],
             dirty: vec![true; banks],
             dirty_list: (0..banks as u32).collect(),
             sched: vec![BankSched::default(); banks],
@@ -306,6 +312,7 @@ impl Channel {
             match offer {
                 Some(c) => {
                     self.cands[b] = c;
+                    self.ready[b] = self.engine.earliest_bank(c.kind.into(), b);
                     self.has.insert(b);
                 }
                 None => self.has.remove(b),
@@ -313,6 +320,7 @@ impl Channel {
             match alt {
                 Some(a) => {
                     self.alts[b] = a;
+                    self.alt_ready[b] = self.engine.earliest_bank(a.kind.into(), b);
                     self.has_alt.insert(b);
                 }
                 None => self.has_alt.remove(b),
@@ -380,11 +388,9 @@ impl Channel {
         let mut best: Option<(usize, Candidate)> = None;
         for b in self.has.iter() {
             let mut c = self.cands[b];
-            if self.engine.earliest_bank(c.kind.into(), b) > t {
+            if self.ready[b] > t {
                 // The hit cannot issue; without row-hit protection its PRE alternative may.
-                if !self.has_alt.contains(b)
-                    || self.engine.earliest_bank(self.alts[b].kind.into(), b) > t
-                {
+                if !self.has_alt.contains(b) || self.alt_ready[b] > t {
                     continue;
                 }
                 c = self.alts[b];
@@ -431,6 +437,7 @@ impl Channel {
         }
         let act_time = self.engine.act_time(b);
         self.engine.issue(cmd, b, c.row, t);
+        self.refresh_ready(self.engine.shared_raise(cmd));
         if let Some(ch) = &mut self.checker {
             ch.record(cmd, b, c.row, t);
         }
@@ -485,6 +492,26 @@ impl Channel {
             }
         }
         self.mark_dirty(b);
+    }
+
+    /// Recompute the ready times of offers whose kind is in `mask` (bit `1 << kind`).
+    #[inline]
+    fn refresh_ready(&mut self, mask: u8) {
+        if mask == 0 {
+            return;
+        }
+        for b in self.has.iter() {
+            let k = self.cands[b].kind;
+            if mask & (1 << k) != 0 {
+                self.ready[b] = self.engine.earliest_bank(k.into(), b);
+            }
+        }
+        for b in self.has_alt.iter() {
+            let k = self.alts[b].kind;
+            if mask & (1 << k) != 0 {
+                self.alt_ready[b] = self.engine.earliest_bank(k.into(), b);
+            }
+        }
     }
 
     /// A column command for the request in `slot`: classify it, schedule its completion (and
@@ -591,10 +618,10 @@ impl Channel {
         }
         self.settle_candidates();
         for b in self.has.iter() {
-            e = e.min(self.engine.earliest_bank(self.cands[b].kind.into(), b));
+            e = e.min(self.ready[b]);
         }
         for b in self.has_alt.iter() {
-            e = e.min(self.engine.earliest_bank(self.alts[b].kind.into(), b));
+            e = e.min(self.alt_ready[b]);
         }
         if e == u64::MAX { e } else { e.max(from) }
     }
@@ -670,17 +697,36 @@ impl BankSet {
     fn contains(&self, b: usize) -> bool {
         self.words[b / 64] & (1 << (b % 64)) != 0
     }
+    /// The members, in increasing order.
     #[inline]
-    fn iter(&self) -> impl Iterator<Item = usize> + '_ {
-        self.words.iter().enumerate().flat_map(|(i, &w)| {
-            let mut w = w;
-            std::iter::from_fn(move || {
-                (w != 0).then(|| {
-                    let b = w.trailing_zeros() as usize;
-                    w &= w - 1;
-                    i * 64 + b
-                })
-            })
-        })
+    fn iter(&self) -> BankIter<'_> {
+        BankIter {
+            word: self.words.first().copied().unwrap_or(0),
+            index: 0,
+            words: &self.words,
+        }
+    }
+}
+
+/// Iterator over a [`BankSet`]'s members.
+struct BankIter<'a> {
+    word: u64,
+    index: usize,
+    words: &'a [u64],
+}
+
+impl Iterator for BankIter<'_> {
+    type Item = usize;
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        loop {
+            if self.word != 0 {
+                let b = self.word.trailing_zeros() as usize;
+                self.word &= self.word - 1;
+                return Some(self.index * 64 + b);
+            }
+            self.index += 1;
+            self.word = *self.words.get(self.index)?;
+        }
     }
 }
