@@ -142,6 +142,12 @@ pub fn run(args: DramArgs) -> Result<()> {
     if !(0.0..=1.0).contains(&args.read_ratio) {
         return Err(ConfigError::range("--read-ratio", args.read_ratio, "0..=1").into());
     }
+    let max_gap = rtsim_dram::trace::MAX_TRACE_GAP;
+    if args.interval > max_gap {
+        return Err(
+            ConfigError::range("--interval", args.interval, format!("0..={max_gap}")).into(),
+        );
+    }
     let mut config = rtsim_dram::config::resolve(&UserLayers {
         preset: args.preset.as_deref(),
         file: args.config.as_deref(),

@@ -464,6 +464,17 @@ impl Validate for DramConfig {
             return Err(ConfigError::key("preset", "must not be empty"));
         }
         check_mhz("requester_clock_mhz", self.requester_clock_mhz)?;
+        let ratio = self.requester_clock_mhz / self.timing.clock_mhz;
+        if !(1.0 / 1024.0..=1024.0).contains(&ratio) {
+            return Err(ConfigError::range(
+                "requester_clock_mhz",
+                self.requester_clock_mhz,
+                format!(
+                    "within a factor of 1024 of timing.clock_mhz = {}",
+                    self.timing.clock_mhz
+                ),
+            ));
+        }
         self.organisation.validate()?;
         self.timing.validate_with(&self.organisation)?;
         self.current.validate()?;

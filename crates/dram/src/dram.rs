@@ -21,6 +21,10 @@ use rtsim_core::{MemCompletion, MemOp, MemRequest, MemoryPort, QueueFull};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
+/// Requester cycles beyond this are clamped (2^52: ~52 days at 1 GHz), so that conversions
+/// between clocks (ratios up to 1024 : 1) stay within 64 bits.
+pub const MAX_CYCLE: u64 = 1 << 52;
+
 /// A completion waiting for the requester to reach its finish cycle.
 #[derive(Clone, Copy, Debug)]
 struct Ready {
@@ -208,7 +212,11 @@ impl MemoryPort for Dram {
             ch.refused(req.op);
             return Err(QueueFull);
         }
-        let arrival_mem = self.spec.req_to_mem.ceil(req.arrival).max(self.mem_done);
+        let arrival_mem = self
+            .spec
+            .req_to_mem
+            .ceil(req.arrival.min(MAX_CYCLE))
+            .max(self.mem_done);
         self.seq += 1;
         ch.enqueue(Entry {
             id: req.id,
@@ -231,6 +239,7 @@ impl MemoryPort for Dram {
     }
 
     fn advance_to(&mut self, cycle: u64) {
+        let cycle = cycle.min(MAX_CYCLE);
         if self.now_req.is_some_and(|n| cycle <= n) {
             return;
         }

@@ -91,9 +91,20 @@ fn parse_hex(s: &str) -> Result<u64, String> {
     u64::from_str_radix(digits, 16).map_err(|_| format!("`{s}` is not a hex address"))
 }
 
-fn parse_dec(s: &str, what: &str) -> Result<u64, String> {
-    s.parse::<u64>()
-        .map_err(|_| format!("`{s}` is not a {what} (a non-negative integer)"))
+/// Largest arrival cycle a trace may give (2^48: ~3 days at 1 GHz), keeping all time
+/// arithmetic far from overflow.
+pub const MAX_TRACE_CYCLE: u64 = 1 << 48;
+/// Largest gap one USIMM line may give.
+pub const MAX_TRACE_GAP: u64 = 1 << 32;
+
+fn parse_dec(s: &str, what: &str, limit: u64) -> Result<u64, String> {
+    let v = s
+        .parse::<u64>()
+        .map_err(|_| format!("`{s}` is not a {what} (a non-negative integer)"))?;
+    if v > limit {
+        return Err(format!("{what} {v} exceeds the supported {limit}"));
+    }
+    Ok(v)
 }
 
 fn parse_op(s: &str) -> Result<MemOp, String> {
@@ -125,7 +136,7 @@ pub fn parse_line(format: TraceFormat, line: &str) -> Result<Option<TraceRecord>
         TraceFormat::Rtsim => {
             expect(&[3], "<cycle> <R|W> <hex addr>")?;
             TraceRecord {
-                when: When::At(parse_dec(f[0], "cycle")?),
+                when: When::At(parse_dec(f[0], "cycle", MAX_TRACE_CYCLE)?),
                 op: parse_op(f[1])?,
                 addr: parse_hex(f[2])?,
             }
@@ -133,7 +144,7 @@ pub fn parse_line(format: TraceFormat, line: &str) -> Result<Option<TraceRecord>
         TraceFormat::Dramsim3 => {
             expect(&[3], "<hex addr> <READ|WRITE> <cycle>")?;
             TraceRecord {
-                when: When::At(parse_dec(f[2], "cycle")?),
+                when: When::At(parse_dec(f[2], "cycle", MAX_TRACE_CYCLE)?),
                 op: parse_op(f[1])?,
                 addr: parse_hex(f[0])?,
             }
@@ -144,7 +155,7 @@ pub fn parse_line(format: TraceFormat, line: &str) -> Result<Option<TraceRecord>
                 parse_hex(f[3]).map_err(|_| format!("`{}` is not a hex PC", f[3]))?;
             }
             TraceRecord {
-                when: When::Gap(parse_dec(f[0], "gap")?),
+                when: When::Gap(parse_dec(f[0], "gap", MAX_TRACE_GAP)?),
                 op: parse_op(f[1])?,
                 addr: parse_hex(f[2])?,
             }
@@ -395,6 +406,8 @@ mod tests {
             (TraceFormat::Dramsim3, "0x40 READ", "field"),
             (TraceFormat::Usimm, "1 R 0x40 0x1 extra", "field"),
             (TraceFormat::Usimm, "1 R 0x40 pc", "PC"),
+            (TraceFormat::Usimm, "9999999999999 R 0x40", "exceeds"),
+            (TraceFormat::Rtsim, "999999999999999999 R 0x40", "exceeds"),
         ] {
             let e = parse_line(fmt, line).unwrap_err();
             assert!(e.contains(needle), "{line}: {e}");

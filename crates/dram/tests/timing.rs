@@ -395,3 +395,36 @@ fn ticking_and_jumping_agree() {
         assert_legal(&ticked);
     }
 }
+
+/// Long (run with `--ignored`): hundreds of thousands of requests per preset and policy mix,
+/// every command re-validated by the checker.
+#[test]
+#[ignore]
+fn long_checked_runs_are_legal() {
+    for p in PRESETS {
+        for (pattern, closed, pd) in [
+            (Pattern::Random, false, false),
+            (Pattern::Random, true, true),
+            (Pattern::Strided { stride: 8192 * 3 }, false, true),
+            (Pattern::Stream, true, false),
+        ] {
+            let mut c = config(p.name);
+            if closed {
+                c.controller.row_policy = RowPolicyKind::Closed;
+            }
+            if pd {
+                c.controller.power_down = PowerDownKind::Fast;
+                c.controller.power_down_idle = 20;
+            }
+            let n = 300_000u64;
+            let cap = Dram::new(&c).unwrap().spec().org.capacity_bytes;
+            let traffic = Synthetic::new(pattern, n, 0.7, 3, 64, cap, 11);
+            let d = run(&c, traffic);
+            let mut d = d;
+            let s = d.stats();
+            assert_eq!(s.reads_done + s.writes_done, n, "{}", p.name);
+            assert!(s.commands_checked > n / 2);
+            assert_legal(&d);
+        }
+    }
+}
