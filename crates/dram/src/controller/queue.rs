@@ -276,6 +276,11 @@ impl RequestQueues {
             .any(|&s| s != except && self.slab[s as usize].row == row)
     }
 
+    /// Requests accepted but not yet arrived.
+    pub fn pending_len(&self) -> u32 {
+        self.pending.len() as u32
+    }
+
     /// Total slots in use.
     pub fn occupied(&self) -> u32 {
         self.read_slots + self.write_slots

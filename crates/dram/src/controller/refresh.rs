@@ -49,6 +49,11 @@ impl Refresh {
         any
     }
 
+    /// tREFI.
+    pub fn interval(&self) -> u64 {
+        self.refi
+    }
+
     /// REF issued for `rank`.
     pub fn issued(&mut self, rank: usize) {
         self.pending[rank] = false;
