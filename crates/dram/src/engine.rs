@@ -10,7 +10,7 @@
 //! per cycle is the controller's rule; [`Engine::can_issue`] includes it.
 
 use crate::spec::DramSpec;
-use crate::spec::constraints::{Cmd, Constraint, Scope};
+use crate::spec::constraints::{Cmd, Scope};
 
 /// Row number meaning "no row open".
 pub const CLOSED: u32 = u32::MAX;
@@ -19,6 +19,14 @@ const K: usize = Cmd::KINDS;
 /// bank-group rules only ever name bank commands as the next command, so the per-bank and
 /// per-group tables are this narrow (32 bytes per bank: cache-friendly scans).
 const BK: usize = 4;
+
+/// A rule as the engine applies it: 8 bytes, so that a command's rules share a cache line.
+#[derive(Clone, Copy, Debug)]
+struct Applied {
+    scope: Scope,
+    kind: u8,
+    cycles: u32,
+}
 
 /// An activation window: at most `window` ACTs in any `cycles` cycles of one rank.
 #[derive(Clone, Debug)]
@@ -38,7 +46,7 @@ pub struct Engine {
     banks_per_rank: usize,
     /// Rules grouped by the issued command (RDA also gets RD's rules, WRA WR's), window rules
     /// excluded.
-    by_prev: Vec<Vec<Constraint>>,
+    by_prev: Vec<Vec<Applied>>,
     windows: Vec<Window>,
     bank_next: Vec<[u64; BK]>,
     group_next: Vec<[u64; BK]>,
@@ -85,7 +93,12 @@ impl Engine {
             }
             for issued in Cmd::ALL {
                 if c.prev.covers(issued) {
-                    by_prev[issued as usize].push(*c);
+                    by_prev[issued as usize].push(Applied {
+                        scope: c.scope,
+                        kind: c.next.kind() as u8,
+                        // Timing values are validated to at most 10^7 cycles, sums far below 2^32.
+                        cycles: u32::try_from(c.cycles).unwrap_or(u32::MAX),
+                    });
                 }
             }
         }
@@ -93,7 +106,7 @@ impl Engine {
         for issued in Cmd::ALL {
             for c in &by_prev[issued as usize] {
                 if c.scope != Scope::Bank {
-                    shared_raise[issued as usize] |= 1 << c.next.kind();
+                    shared_raise[issued as usize] |= 1 << c.kind;
                 }
             }
         }
@@ -191,8 +204,8 @@ impl Engine {
         let group = self.group_of[b] as usize;
         let rules = &self.by_prev[cmd as usize];
         for c in rules {
-            let at = t + c.cycles;
-            let k = c.next.kind();
+            let at = t + u64::from(c.cycles);
+            let k = usize::from(c.kind);
             match c.scope {
                 Scope::Bank => raise(&mut self.bank_next[b][k], at),
                 Scope::BankGroup => raise(&mut self.group_next[group][k], at),

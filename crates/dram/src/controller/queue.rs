@@ -68,6 +68,9 @@ pub struct QueuePolicy {
 pub struct RequestQueues {
     pub policy: QueuePolicy,
     slab: Vec<Entry>,
+    /// The row of each slot's request, apart from the slab so that bank-list scans stay in
+    /// cache.
+    rows: Vec<u32>,
     free: Vec<u32>,
     /// Slots in use by reads / writes (pending, queued and merged).
     pub read_slots: u32,
@@ -106,6 +109,7 @@ impl RequestQueues {
         RequestQueues {
             policy,
             slab: vec![blank; cap],
+            rows: vec![0; cap],
             free: (0..cap as u32).rev().collect(),
             read_slots: 0,
             write_slots: 0,
@@ -136,6 +140,12 @@ impl RequestQueues {
         &self.slab[slot as usize]
     }
 
+    /// The row of the request in `slot`.
+    #[inline]
+    pub fn row(&self, slot: u32) -> u32 {
+        self.rows[slot as usize]
+    }
+
     #[inline]
     pub fn get_mut(&mut self, slot: u32) -> &mut Entry {
         &mut self.slab[slot as usize]
@@ -146,6 +156,7 @@ impl RequestQueues {
     pub fn push_pending(&mut self, e: Entry) {
         let slot = self.free.pop().expect("capacity checked by has_room");
         self.slab[slot as usize] = e;
+        self.rows[slot as usize] = e.row;
         match e.op {
             MemOp::Read => self.read_slots += 1,
             MemOp::Write => self.write_slots += 1,
@@ -273,7 +284,7 @@ impl RequestQueues {
         self.reads[b]
             .iter()
             .chain(&self.writes[b])
-            .any(|&s| s != except && self.slab[s as usize].row == row)
+            .any(|&s| s != except && self.rows[s as usize] == row)
     }
 
     /// Requests accepted but not yet arrived.

@@ -78,7 +78,7 @@ pub fn bank_alternative(
         MemOp::Read => &q.reads[b],
         MemOp::Write => &q.writes[b],
     };
-    let m = list.iter().copied().find(|&s| q.get(s).row != open_row)?;
+    let m = list.iter().copied().find(|&s| q.row(s) != open_row)?;
     let e = q.get(m);
     Some(Candidate {
         cmd: Cmd::Pre,
@@ -130,15 +130,15 @@ pub fn bank_candidate(
     }
     match kind {
         SchedulerKind::Fcfs => {
-            if q.get(first).row == open_row {
+            if q.row(first) == open_row {
                 Some(offer(col, first, true))
             } else {
                 Some(offer(Cmd::Pre, first, false))
             }
         }
         SchedulerKind::FrFcfs => {
-            let hit = list.iter().copied().find(|&s| q.get(s).row == open_row);
-            let miss = list.iter().copied().find(|&s| q.get(s).row != open_row);
+            let hit = list.iter().copied().find(|&s| q.row(s) == open_row);
+            let miss = list.iter().copied().find(|&s| q.row(s) != open_row);
             match (hit, miss) {
                 (Some(_), Some(m)) if row_hit_cap > 0 && st.streak >= row_hit_cap => {
                     // Starvation cap: the waiting row gets its turn.
