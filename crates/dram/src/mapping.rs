@@ -193,6 +193,12 @@ impl AddressMapper {
                     f.name()
                 )));
             }
+            if let Some(&Some(w)) = occ.iter().find(|w| w.is_some_and(|w| w > want)) {
+                return Err(bad(format!(
+                    "a slice of `{}` in `{text}` has {w} bits, but the field has only {want}",
+                    f.name()
+                )));
+            }
             let given: u32 = occ.iter().map(|w| w.unwrap_or(want)).sum();
             if given != want {
                 return Err(bad(format!(
@@ -391,6 +397,10 @@ mod tests {
             ("row:rank:bank:channel:column:offset:row", "offset"),
             ("row:rank:bonk:channel:column:offset", "bonk"),
             ("row:rank:bank:channel:column(x):offset", "column(x)"),
+            (
+                "row:rank:bank:channel:column(4294967295):column(8):offset",
+                "4294967295",
+            ),
         ] {
             match AddressMapper::new(text, false, &org) {
                 Ok(_) if needle == "rank" => {}
