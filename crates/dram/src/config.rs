@@ -649,6 +649,21 @@ impl Timing {
                 format!("> tRFC = {} (refresh would never end)", self.t_rfc),
             ));
         }
+        // A refresh closes every row; if a whole row access cannot fit between two refreshes,
+        // a request could be re-opened forever and never served.
+        let access = u64::from(self.t_rc)
+            + u64::from(self.t_rcd.max(self.rcdwr()))
+            + u64::from(self.cl.max(self.cwl))
+            + u64::from(self.t_wr);
+        let window = u64::from(self.t_refi - self.t_rfc);
+        if access > window {
+            return Err(ConfigError::key(
+                "timing",
+                format!(
+                    "a row access (tRC + tRCD + CL + tWR = {access} cycles) does not fit between two refreshes (tREFI - tRFC = {window}); lower those or raise tREFI"
+                ),
+            ));
+        }
         let _ = o;
         Ok(())
     }
@@ -968,6 +983,7 @@ mod tests {
             ("timing.tRCDX=3", "tRCDX"),
             ("organisation.line_bytes=16", "organisation.line_bytes"),
             ("mapping=rank:bank:channel:column:offset", "mapping"),
+            ("timing.tRCD=9999999", "between two refreshes"),
         ];
         for (set, key) in cases {
             let sets = vec![set.to_string()];
