@@ -24,6 +24,8 @@ pub enum Command {
     Scenes(ScenesArgs),
     /// Measure tracing throughput (Mrays/s) and BVH build time.
     Bench(BenchArgs),
+    /// Run the DRAM model alone on a request trace or synthetic traffic (see docs/DRAM.md).
+    Dram(crate::commands::dram::DramArgs),
 }
 
 /// Flags shared by everything that loads a scene and a config.

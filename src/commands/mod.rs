@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod bvh_stats;
+pub mod dram;
 pub mod export;
 pub mod render;
 pub mod scenes;
@@ -18,5 +19,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::BvhStats(a) => bvh_stats::run(a),
         Command::Scenes(a) => scenes::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Dram(a) => dram::run(a),
     }
 }

@@ -1,0 +1,774 @@
+//! The memory controller of one channel, simulated event by event at the memory clock.
+//!
+//! Each step handles one memory cycle `t`: requests arriving by `t` are admitted (forwarded,
+//! merged or queued at their bank, see [`queue`]); due refreshes become pending ([`refresh`]);
+//! the write-drain mode is updated (enter at the high watermark or when no read waits, leave at
+//! the low watermark); then at most one command is issued, in this priority: power-down exit,
+//! refresh preparation (PRE, REF), the scheduler's pick among the banks' ready candidates
+//! ([`scheduler`]), power-down entry ([`power`]). The step ends by computing the next cycle at
+//! which anything can happen — the earliest ready time of any candidate, arrival or refresh —
+//! so idle cycles are skipped without changing the result: the outcome is identical to ticking
+//! every cycle.
+
+pub mod power;
+pub mod queue;
+pub mod refresh;
+pub mod row_policy;
+pub mod scheduler;
+
+use crate::checker::Checker;
+use crate::config::{ControllerConfig, PowerDownKind};
+use crate::engine::{CLOSED, Engine};
+use crate::spec::DramSpec;
+use crate::spec::Ratio;
+use crate::spec::constraints::Cmd;
+use crate::stats::DramStats;
+use power::RankPower;
+use queue::{Admit, Entry, NIL, QueuePolicy, RequestQueues};
+use refresh::Refresh;
+use rtsim_core::{MemCompletion, MemOp};
+use scheduler::{BankSched, Candidate};
+
+/// What to issue this cycle.
+#[derive(Clone, Copy, Debug)]
+struct Choice {
+    cmd: Cmd,
+    bank: usize,
+    row: u32,
+    /// The request served, or NIL for refresh and power-down commands.
+    slot: u32,
+}
+
+/// One channel: controller queues, scheduler state, the timing engine and the stats.
+#[derive(Debug)]
+pub struct Channel {
+    pub index: u32,
+    engine: Engine,
+    q: RequestQueues,
+    ctl: ControllerConfig,
+    /// Each bank's offer (valid where `has` is set), recomputed lazily for `dirty` banks.
+    cands: Vec<Candidate>,
+    has: BankSet,
+    /// Alternative offers (PRE behind a row hit; only without row-hit protection).
+    alts: Vec<Candidate>,
+    has_alt: BankSet,
+    /// Earliest legal cycle of each offer and alternative, kept current: recomputed when the
+    /// offer changes and, after each command, for offers of a kind that command can delay.
+    ready: Vec<u64>,
+    alt_ready: Vec<u64>,
+    dirty: Vec<bool>,
+    dirty_list: Vec<u32>,
+    sched: Vec<BankSched>,
+    refresh: Refresh,
+    power: Vec<RankPower>,
+    /// Cycle of the last command or arrival per rank (power-down idleness).
+    last_busy: Vec<u64>,
+    write_mode: bool,
+    drain_since: u64,
+    occ_since: u64,
+    /// Earliest cycle at which something can happen (u64::MAX: nothing scheduled).
+    next_event: u64,
+    /// All cycles below this have been simulated.
+    done_below: u64,
+    banks_per_rank: usize,
+    cl: u64,
+    cwl: u64,
+    burst: u64,
+    rtp: u64,
+    ras: u64,
+    wr: u64,
+    mem_to_req: Ratio,
+    pub stats: DramStats,
+    pub checker: Option<Checker>,
+    /// Completions produced and not yet collected by the owner.
+    pub done: Vec<MemCompletion>,
+}
+
+impl Channel {
+    pub fn new(spec: &DramSpec, index: u32) -> Self {
+        let o = &spec.org;
+        let ctl = spec.controller().clone();
+        let banks = (o.ranks * o.banks_per_rank) as usize;
+        let policy = QueuePolicy {
+            read_capacity: ctl.read_queue,
+            write_capacity: ctl.write_queue,
+            merge_reads: ctl.merge_reads,
+            merge_writes: ctl.merge_writes,
+            forward_reads: ctl.forward_reads,
+        };
+        let mut ch = Channel {
+            index,
+            engine: Engine::new(spec),
+            q: RequestQueues::new(policy, banks, o.ranks as usize),
+            ctl,
+            cands: vec![Candidate::NONE; banks],
+            has: BankSet::new(banks),
+            alts: vec![Candidate::NONE; banks],
+            has_alt: BankSet::new(banks),
+            ready: vec![u64::MAX; banks],
+            alt_ready: vec![u64::MAX; banks],
+            dirty: vec![true; banks],
+            dirty_list: (0..banks as u32).collect(),
+            sched: vec![BankSched::default(); banks],
+            refresh: Refresh::new(spec),
+            power: vec![RankPower::default(); o.ranks as usize],
+            last_busy: vec![0; o.ranks as usize],
+            write_mode: false,
+            drain_since: 0,
+            occ_since: 0,
+            next_event: u64::MAX,
+            done_below: 0,
+            banks_per_rank: o.banks_per_rank as usize,
+            cl: spec.t.cl,
+            cwl: spec.t.cwl,
+            burst: spec.t.burst,
+            rtp: spec.t.rtp,
+            ras: spec.t.ras,
+            wr: spec.t.wr,
+            mem_to_req: spec.mem_to_req,
+            stats: DramStats::default(),
+            checker: spec.config.check.then(|| Checker::new(spec, index)),
+            done: Vec::with_capacity((spec.controller().read_queue * 2) as usize),
+        };
+        ch.next_event = ch.compute_next_event(0);
+        ch
+    }
+
+    /// Room for a request of kind `op`?
+    #[inline]
+    pub fn has_room(&self, op: MemOp) -> bool {
+        self.q.has_room(op)
+    }
+
+    /// Accept a request (room checked by the caller). It arrives at `e.arrival_mem`, which is
+    /// not before the first unsimulated cycle.
+    pub fn enqueue(&mut self, e: Entry) {
+        debug_assert!(e.arrival_mem >= self.done_below);
+        match e.op {
+            MemOp::Read => self.stats.reads += 1,
+            MemOp::Write => self.stats.writes += 1,
+        }
+        self.q.push_pending(e);
+        self.next_event = self.next_event.min(e.arrival_mem);
+    }
+
+    /// Count a refused request.
+    pub fn refused(&mut self, op: MemOp) {
+        match op {
+            MemOp::Read => self.stats.reads_refused += 1,
+            MemOp::Write => self.stats.writes_refused += 1,
+        }
+    }
+
+    /// Has requests queued or arriving.
+    pub fn busy(&self) -> bool {
+        !self.q.is_empty()
+    }
+
+    /// Earliest cycle at which the channel can change state (`u64::MAX` if never).
+    #[inline]
+    pub fn next_event(&self) -> u64 {
+        self.next_event
+    }
+
+    /// Simulate every cycle up to and including `limit`.
+    pub fn run_until(&mut self, limit: u64) {
+        while self.next_event <= limit {
+            if self.skip_idle_refreshes(limit) {
+                self.next_event = self.compute_next_event(self.done_below);
+                continue;
+            }
+            let t = self.next_event;
+            self.step(t);
+        }
+        self.done_below = self.done_below.max(limit + 1);
+    }
+
+    /// While the channel is idle (no request queued or arriving before `limit`, all banks
+    /// closed, no refresh pending, no power-down policy), its only events are refreshes, each
+    /// issued at its due time and leaving nothing behind once tRFC has passed. So all but the
+    /// last due refresh of each rank up to `limit` are counted without being simulated; the last
+    /// is simulated normally, which leaves exactly the state ticking would. Returns whether any
+    /// refresh was skipped.
+    fn skip_idle_refreshes(&mut self, limit: u64) -> bool {
+        if !self.refresh.enabled
+            || self.ctl.power_down != PowerDownKind::Off
+            || self.q.occupied() > self.q.pending_len()
+        {
+            return false;
+        }
+        let end = match self.q.next_arrival() {
+            Some(a) if a <= limit => a.saturating_sub(1),
+            _ => limit,
+        };
+        let refi = self.refresh.interval();
+        let mut skipped = false;
+        for r in 0..self.engine.ranks() {
+            if self.refresh.pending[r] || self.engine.open_banks(r) > 0 {
+                return skipped;
+            }
+        }
+        for r in 0..self.engine.ranks() {
+            let due = self.refresh.due[r];
+            if due <= end {
+                let n = (end - due) / refi;
+                if n > 0 {
+                    self.refresh.due[r] += n * refi;
+                    self.stats.refreshes += n;
+                    skipped = true;
+                }
+            }
+        }
+        skipped
+    }
+
+    fn step(&mut self, t: u64) {
+        self.integrate_occupancy(t);
+        while let Some(slot) = self.q.pop_arrived(t) {
+            self.admit(slot, t);
+        }
+        if self.refresh.poll(t) {
+            self.mark_all_dirty();
+        }
+        self.update_mode(t);
+        if let Some(c) = self.choose(t) {
+            self.issue(c, t);
+            // Serving a request changes the queue lengths the drain mode depends on.
+            self.update_mode(t + 1);
+        }
+        self.done_below = t + 1;
+        self.next_event = self.compute_next_event(t + 1);
+    }
+
+    fn integrate_occupancy(&mut self, t: u64) {
+        if t > self.occ_since {
+            let dt = u128::from(t - self.occ_since);
+            self.stats.read_queue_occupancy_sum += u128::from(self.q.reads_arrived) * dt;
+            self.stats.write_queue_occupancy_sum += u128::from(self.q.writes_arrived) * dt;
+            self.stats.occupancy_cycles += t - self.occ_since;
+            self.occ_since = t;
+        }
+    }
+
+    fn admit(&mut self, slot: u32, t: u64) {
+        let e = *self.q.get(slot);
+        self.last_busy[e.rank as usize] = t;
+        match self.q.admit(slot) {
+            Admit::Queued => self.mark_dirty(e.bank as usize),
+            Admit::Merged(_) => match e.op {
+                MemOp::Read => self.stats.reads_merged += 1,
+                MemOp::Write => self.stats.writes_merged += 1,
+            },
+            Admit::Forwarded => {
+                self.stats.reads_forwarded += 1;
+                self.complete(&e, t + u64::from(self.ctl.forward_latency));
+                self.q.release(slot, false);
+            }
+        }
+        self.stats.read_queue_max = self.stats.read_queue_max.max(self.q.reads_arrived.into());
+        self.stats.write_queue_max = self.stats.write_queue_max.max(self.q.writes_arrived.into());
+    }
+
+    #[inline]
+    fn mark_dirty(&mut self, b: usize) {
+        if !self.dirty[b] {
+            self.dirty[b] = true;
+            self.dirty_list.push(b as u32);
+        }
+    }
+
+    fn mark_all_dirty(&mut self) {
+        for b in 0..self.dirty.len() {
+            self.mark_dirty(b);
+        }
+    }
+
+    fn mark_rank_dirty(&mut self, rank: usize) {
+        for b in rank * self.banks_per_rank..(rank + 1) * self.banks_per_rank {
+            self.mark_dirty(b);
+        }
+    }
+
+    /// Write-drain mode (USIMM's policy): enter at the high watermark or when no read waits,
+    /// stay until the low watermark unless there is still nothing else to do.
+    fn update_mode(&mut self, t: u64) {
+        let wq = self.q.writes_arrived;
+        let rq = self.q.reads_arrived;
+        let want = if self.write_mode {
+            wq > self.ctl.write_low_watermark
+        } else {
+            wq >= self.ctl.write_high_watermark
+        } || (rq == 0 && wq > 0);
+        if want != self.write_mode {
+            if want {
+                self.stats.write_drain_episodes += 1;
+                self.drain_since = t;
+            } else {
+                self.stats.write_drain_cycles += t - self.drain_since;
+            }
+            self.write_mode = want;
+            self.mark_all_dirty();
+        }
+    }
+
+    #[inline]
+    fn rank_blocked(&self, rank: usize) -> bool {
+        self.refresh.pending[rank] || self.engine.is_powered_down(rank)
+    }
+
+    /// Recompute the offers of banks whose inputs changed.
+    fn settle_candidates(&mut self) {
+        while let Some(b) = self.dirty_list.pop() {
+            let b = b as usize;
+            self.dirty[b] = false;
+            let rank = b / self.banks_per_rank;
+            let offer = if self.rank_blocked(rank) {
+                None
+            } else {
+                let op = if self.write_mode {
+                    MemOp::Write
+                } else {
+                    MemOp::Read
+                };
+                scheduler::bank_candidate(
+                    self.ctl.scheduler,
+                    self.ctl.row_hit_cap,
+                    &self.sched[b],
+                    &self.q,
+                    b,
+                    op,
+                    self.engine.open_row(b),
+                )
+            };
+            let alt = match offer {
+                Some(c) if c.hit && !self.ctl.protect_row_hits => {
+                    let op = if self.write_mode {
+                        MemOp::Write
+                    } else {
+                        MemOp::Read
+                    };
+                    scheduler::bank_alternative(&self.q, b, op, self.engine.open_row(b))
+                }
+                _ => None,
+            };
+            match offer {
+                Some(c) => {
+                    self.cands[b] = c;
+                    self.ready[b] = self.engine.earliest_bank(c.kind.into(), b);
+                    self.has.insert(b);
+                }
+                None => self.has.remove(b),
+            }
+            match alt {
+                Some(a) => {
+                    self.alts[b] = a;
+                    self.alt_ready[b] = self.engine.earliest_bank(a.kind.into(), b);
+                    self.has_alt.insert(b);
+                }
+                None => self.has_alt.remove(b),
+            }
+        }
+    }
+
+    fn wants_wake(&self, rank: usize) -> bool {
+        self.q.per_rank[rank] > 0 || self.refresh.pending[rank]
+    }
+
+    fn may_power_down(&self, rank: usize) -> bool {
+        self.ctl.power_down == PowerDownKind::Fast
+            && !self.engine.is_powered_down(rank)
+            && self.q.per_rank[rank] == 0
+            && !self.refresh.pending[rank]
+    }
+
+    /// Pick the command to issue at `t`, if any is ready.
+    fn choose(&mut self, t: u64) -> Option<Choice> {
+        let bpr = self.banks_per_rank;
+        let ranks = self.engine.ranks();
+        // Power-down exit.
+        for r in 0..ranks {
+            if self.engine.is_powered_down(r)
+                && self.wants_wake(r)
+                && self.engine.earliest(Cmd::Pdx, r * bpr) <= t
+            {
+                return Some(Choice {
+                    cmd: Cmd::Pdx,
+                    bank: r * bpr,
+                    row: CLOSED,
+                    slot: NIL,
+                });
+            }
+        }
+        // Refresh: precharge the rank, then REF.
+        for r in 0..ranks {
+            if !self.refresh.pending[r] || self.engine.is_powered_down(r) {
+                continue;
+            }
+            if self.engine.open_banks(r) > 0 {
+                for b in r * bpr..(r + 1) * bpr {
+                    if self.engine.open_row(b) != CLOSED && self.engine.earliest(Cmd::Pre, b) <= t {
+                        return Some(Choice {
+                            cmd: Cmd::Pre,
+                            bank: b,
+                            row: CLOSED,
+                            slot: NIL,
+                        });
+                    }
+                }
+            } else if self.engine.earliest(Cmd::Ref, r * bpr) <= t {
+                return Some(Choice {
+                    cmd: Cmd::Ref,
+                    bank: r * bpr,
+                    row: CLOSED,
+                    slot: NIL,
+                });
+            }
+        }
+        // Requests.
+        self.settle_candidates();
+        let kind = self.ctl.scheduler;
+        let mut best: Option<(usize, Candidate)> = None;
+        for b in self.has.iter() {
+            let mut c = self.cands[b];
+            if self.ready[b] > t {
+                // The hit cannot issue; without row-hit protection its PRE alternative may.
+                if !self.has_alt.contains(b) || self.alt_ready[b] > t {
+                    continue;
+                }
+                c = self.alts[b];
+            }
+            if best.is_none_or(|(_, w)| scheduler::wins(kind, &c, &w)) {
+                best = Some((b, c));
+            }
+        }
+        if let Some((b, c)) = best {
+            return Some(Choice {
+                cmd: c.cmd,
+                bank: b,
+                row: c.row,
+                slot: c.slot,
+            });
+        }
+        // Power-down entry.
+        for r in 0..ranks {
+            if self.may_power_down(r)
+                && t >= self.last_busy[r] + u64::from(self.ctl.power_down_idle)
+                && self.engine.earliest(Cmd::Pde, r * bpr) <= t
+            {
+                return Some(Choice {
+                    cmd: Cmd::Pde,
+                    bank: r * bpr,
+                    row: CLOSED,
+                    slot: NIL,
+                });
+            }
+        }
+        None
+    }
+
+    fn issue(&mut self, c: Choice, t: u64) {
+        let b = c.bank;
+        let rank = b / self.banks_per_rank;
+        let mut cmd = c.cmd;
+        let mut auto_close = false;
+        if matches!(cmd, Cmd::Rd | Cmd::Wr)
+            && row_policy::auto_precharge(self.ctl.row_policy, &self.q, b, c.row, c.slot)
+        {
+            auto_close = true;
+            cmd = if cmd == Cmd::Rd { Cmd::Rda } else { Cmd::Wra };
+        }
+        let act_time = self.engine.act_time(b);
+        self.engine.issue(cmd, b, c.row, t);
+        self.refresh_ready(self.engine.shared_raise(cmd));
+        if let Some(ch) = &mut self.checker {
+            ch.record(cmd, b, c.row, t);
+        }
+        self.last_busy[rank] = t;
+        match cmd {
+            Cmd::Act => {
+                self.stats.activates += 1;
+                let e = self.q.get_mut(c.slot);
+                e.act_for = true;
+                match e.op {
+                    MemOp::Read => self.stats.activates_for_reads += 1,
+                    MemOp::Write => self.stats.activates_for_writes += 1,
+                }
+                self.sched[b] = BankSched::default();
+                self.power[rank].open(t);
+            }
+            Cmd::Pre => {
+                if c.slot == NIL {
+                    self.stats.refresh_precharges += 1;
+                } else {
+                    self.stats.precharges += 1;
+                    self.q.get_mut(c.slot).pre_for = true;
+                    self.sched[b].pre_target = c.slot;
+                }
+                self.power[rank].close(t);
+            }
+            Cmd::Rd | Cmd::Wr | Cmd::Rda | Cmd::Wra => {
+                self.column(c.slot, b, t, cmd);
+                if auto_close {
+                    self.stats.auto_precharges += 1;
+                    let at = if cmd == Cmd::Rda {
+                        (t + self.rtp).max(act_time + self.ras)
+                    } else {
+                        (t + self.cwl + self.burst + self.wr).max(act_time + self.ras)
+                    };
+                    self.power[rank].close_at(t, at);
+                }
+            }
+            Cmd::Ref => {
+                self.stats.refreshes += 1;
+                self.refresh.issued(rank);
+                self.mark_rank_dirty(rank);
+            }
+            Cmd::Pde => {
+                self.stats.power_downs += 1;
+                self.power[rank].set_powered_down(t, true);
+                self.mark_rank_dirty(rank);
+            }
+            Cmd::Pdx => {
+                self.power[rank].set_powered_down(t, false);
+                self.mark_rank_dirty(rank);
+            }
+        }
+        self.mark_dirty(b);
+    }
+
+    /// Recompute the ready times of offers whose kind is in `mask` (bit `1 << kind`).
+    #[inline]
+    fn refresh_ready(&mut self, mask: u8) {
+        if mask == 0 {
+            return;
+        }
+        for b in self.has.iter() {
+            let k = self.cands[b].kind;
+            if mask & (1 << k) != 0 {
+                self.ready[b] = self.engine.earliest_bank(k.into(), b);
+            }
+        }
+        for b in self.has_alt.iter() {
+            let k = self.alts[b].kind;
+            if mask & (1 << k) != 0 {
+                self.alt_ready[b] = self.engine.earliest_bank(k.into(), b);
+            }
+        }
+    }
+
+    /// A column command for the request in `slot`: classify it, schedule its completion (and
+    /// that of requests merged into it) and free its queue slots.
+    fn column(&mut self, slot: u32, b: usize, t: u64, cmd: Cmd) {
+        self.q.unlist(slot);
+        let e = *self.q.get(slot);
+        let read = matches!(cmd, Cmd::Rd | Cmd::Rda);
+        let s = &mut self.stats;
+        let (hits, misses, conflicts) = if read {
+            s.column_reads += 1;
+            (
+                &mut s.read_row_hits,
+                &mut s.read_row_misses,
+                &mut s.read_row_conflicts,
+            )
+        } else {
+            s.column_writes += 1;
+            (
+                &mut s.write_row_hits,
+                &mut s.write_row_misses,
+                &mut s.write_row_conflicts,
+            )
+        };
+        match (e.act_for, e.pre_for) {
+            (false, _) => {
+                *hits += 1;
+                self.sched[b].streak += 1;
+            }
+            (true, false) => *misses += 1,
+            (true, true) => *conflicts += 1,
+        }
+        s.data_bus_busy_cycles += self.burst;
+        let finish = t + if read { self.cl } else { self.cwl } + self.burst;
+        self.complete(&e, finish);
+        let mut m = e.merged;
+        while m != NIL {
+            let child = *self.q.get(m);
+            self.complete(&child, finish);
+            self.q.release(m, true);
+            m = child.next_merged;
+        }
+        self.q.release(slot, true);
+    }
+
+    /// Record the completion of request `e` at memory cycle `finish`.
+    fn complete(&mut self, e: &Entry, finish: u64) {
+        let finish_req = self.mem_to_req.ceil(finish);
+        let lat_mem = finish - e.arrival_mem;
+        let lat_req = finish_req.saturating_sub(e.arrival_req);
+        match e.op {
+            MemOp::Read => {
+                self.stats.reads_done += 1;
+                self.stats.read_latency_mem.record(lat_mem);
+                self.stats.read_latency_req.record(lat_req);
+            }
+            MemOp::Write => {
+                self.stats.writes_done += 1;
+                self.stats.write_latency_mem.record(lat_mem);
+                self.stats.write_latency_req.record(lat_req);
+            }
+        }
+        self.done.push(MemCompletion {
+            id: e.id,
+            addr: e.req_addr,
+            op: e.op,
+            arrival: e.arrival_req,
+            finish: finish_req,
+        });
+    }
+
+    /// The earliest cycle ≥ `from` at which something can happen.
+    fn compute_next_event(&mut self, from: u64) -> u64 {
+        let bpr = self.banks_per_rank;
+        let mut e = u64::MAX;
+        if let Some(a) = self.q.next_arrival() {
+            e = e.min(a);
+        }
+        if let Some(d) = self.refresh.next_due() {
+            e = e.min(d);
+        }
+        for r in 0..self.engine.ranks() {
+            if self.engine.is_powered_down(r) {
+                if self.wants_wake(r) {
+                    e = e.min(self.engine.earliest(Cmd::Pdx, r * bpr));
+                }
+                continue;
+            }
+            if self.refresh.pending[r] {
+                if self.engine.open_banks(r) > 0 {
+                    for b in r * bpr..(r + 1) * bpr {
+                        if self.engine.open_row(b) != CLOSED {
+                            e = e.min(self.engine.earliest(Cmd::Pre, b));
+                        }
+                    }
+                } else {
+                    e = e.min(self.engine.earliest(Cmd::Ref, r * bpr));
+                }
+            } else if self.may_power_down(r) {
+                let at = (self.last_busy[r] + u64::from(self.ctl.power_down_idle))
+                    .max(self.engine.earliest(Cmd::Pde, r * bpr));
+                e = e.min(at);
+            }
+        }
+        self.settle_candidates();
+        for b in self.has.iter() {
+            e = e.min(self.ready[b]);
+        }
+        for b in self.has_alt.iter() {
+            e = e.min(self.alt_ready[b]);
+        }
+        if e == u64::MAX { e } else { e.max(from) }
+    }
+
+    /// Close the books at cycle `end` (exclusive): occupancy, write-drain time and background
+    /// states are accounted up to `end`, and stats take the background cycles.
+    pub fn finish(&mut self, end: u64) {
+        self.integrate_occupancy(end);
+        if self.write_mode && end > self.drain_since {
+            self.stats.write_drain_cycles += end - self.drain_since;
+            self.drain_since = end;
+        }
+        let mut cycles = [0u64; 4];
+        for p in &mut self.power {
+            p.finish(end);
+            for (a, b) in cycles.iter_mut().zip(p.cycles) {
+                *a += b;
+            }
+        }
+        self.stats.rank_cycles_precharge_standby = cycles[0];
+        self.stats.rank_cycles_active_standby = cycles[1];
+        self.stats.rank_cycles_precharge_power_down = cycles[2];
+        self.stats.rank_cycles_active_power_down = cycles[3];
+        self.stats.mem_cycles = self.stats.mem_cycles.max(end);
+        if let Some(ch) = &self.checker {
+            self.stats.commands_checked = ch.commands_checked;
+            self.stats.violations = ch.violation_count;
+        }
+    }
+
+    /// Violations found by the checker (empty when checking is off).
+    pub fn violations(&self) -> &[String] {
+        self.checker.as_ref().map_or(&[], |c| &c.violations)
+    }
+
+    /// Write-drain mode on?
+    pub fn in_write_mode(&self) -> bool {
+        self.write_mode
+    }
+
+    /// Arrived reads and writes in the queues.
+    pub fn queue_lengths(&self) -> (u32, u32) {
+        (self.q.reads_arrived, self.q.writes_arrived)
+    }
+
+    /// The timing engine (for inspection in tests).
+    pub fn engine(&self) -> &Engine {
+        &self.engine
+    }
+}
+
+/// A set of banks as a bitmask, iterated in bank order.
+#[derive(Clone, Debug)]
+struct BankSet {
+    words: Vec<u64>,
+}
+
+impl BankSet {
+    fn new(n: usize) -> Self {
+        BankSet {
+            words: vec![0; n.div_ceil(64)],
+        }
+    }
+    #[inline]
+    fn insert(&mut self, b: usize) {
+        self.words[b / 64] |= 1 << (b % 64);
+    }
+    #[inline]
+    fn remove(&mut self, b: usize) {
+        self.words[b / 64] &= !(1 << (b % 64));
+    }
+    #[inline]
+    fn contains(&self, b: usize) -> bool {
+        self.words[b / 64] & (1 << (b % 64)) != 0
+    }
+    /// The members, in increasing order.
+    #[inline]
+    fn iter(&self) -> BankIter<'_> {
+        BankIter {
+            word: self.words.first().copied().unwrap_or(0),
+            index: 0,
+            words: &self.words,
+        }
+    }
+}
+
+/// Iterator over a [`BankSet`]'s members.
+struct BankIter<'a> {
+    word: u64,
+    index: usize,
+    words: &'a [u64],
+}
+
+impl Iterator for BankIter<'_> {
+    type Item = usize;
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        loop {
+            if self.word != 0 {
+                let b = self.word.trailing_zeros() as usize;
+                self.word &= self.word - 1;
+                return Some(self.index * 64 + b);
+            }
+            self.index += 1;
+            self.word = *self.words.get(self.index)?;
+        }
+    }
+}

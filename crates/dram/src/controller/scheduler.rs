@@ -1,0 +1,162 @@
+//! Request schedulers: which command each bank offers, and which offer wins.
+//!
+//! Every bank offers at most one command (its [`Candidate`]) from the requests of the queue
+//! being served (reads, or writes in write-drain mode):
+//! - closed bank: ACT for the request a precharge was issued for, else for the oldest;
+//! - open bank, FR-FCFS: the column command of the oldest request hitting the open row; if there
+//!   is none — or `row_hit_cap` hits have been served while another row's request waits — a PRE
+//!   for the oldest request that misses;
+//! - open bank, FCFS: the oldest request's command (column access if it hits, else PRE).
+//!
+//! With `protect_row_hits = false` (USIMM's FR-FCFS) an open bank whose offer is a row hit also
+//! has an *alternative*: the PRE for its oldest missing request, considered when the hit cannot
+//! issue this cycle.
+//!
+//! Among the candidates that are ready this cycle, FR-FCFS takes row hits first, then the
+//! oldest; FCFS takes the oldest.
+
+use super::queue::{NIL, RequestQueues};
+use crate::config::SchedulerKind;
+use crate::engine::CLOSED;
+use crate::spec::constraints::Cmd;
+use rtsim_core::MemOp;
+
+/// The command one bank offers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Candidate {
+    pub cmd: Cmd,
+    /// `cmd.kind()`, cached for the timing lookup.
+    pub kind: u8,
+    /// The request it serves.
+    pub slot: u32,
+    /// A column access to the open row.
+    pub hit: bool,
+    /// Age of the request (smaller = older).
+    pub seq: u64,
+    pub row: u32,
+}
+
+impl Candidate {
+    /// Placeholder for banks without an offer.
+    pub const NONE: Candidate = Candidate {
+        cmd: Cmd::Act,
+        kind: 0,
+        slot: NIL,
+        hit: false,
+        seq: u64::MAX,
+        row: CLOSED,
+    };
+}
+
+/// Per-bank scheduler state.
+#[derive(Clone, Copy, Debug)]
+pub struct BankSched {
+    /// Row hits served since the row was opened.
+    pub streak: u32,
+    /// The request the last PRE was issued for (gets the next ACT), or NIL.
+    pub pre_target: u32,
+}
+
+impl Default for BankSched {
+    fn default() -> Self {
+        BankSched {
+            streak: 0,
+            pre_target: NIL,
+        }
+    }
+}
+
+/// The alternative offer of an open bank whose offer is a row hit: a PRE for the oldest request
+/// that misses (FR-FCFS without row-hit protection), or `None`.
+pub fn bank_alternative(
+    q: &RequestQueues,
+    b: usize,
+    op: MemOp,
+    open_row: u32,
+) -> Option<Candidate> {
+    let list = match op {
+        MemOp::Read => &q.reads[b],
+        MemOp::Write => &q.writes[b],
+    };
+    let m = list.iter().copied().find(|&s| q.row(s) != open_row)?;
+    let e = q.get(m);
+    Some(Candidate {
+        cmd: Cmd::Pre,
+        kind: Cmd::Pre.kind() as u8,
+        slot: m,
+        hit: false,
+        seq: e.seq,
+        row: e.row,
+    })
+}
+
+/// The candidate of bank `b` when serving `op` requests, with `open_row` open (or CLOSED).
+pub fn bank_candidate(
+    kind: SchedulerKind,
+    row_hit_cap: u32,
+    st: &BankSched,
+    q: &RequestQueues,
+    b: usize,
+    op: MemOp,
+    open_row: u32,
+) -> Option<Candidate> {
+    let list = match op {
+        MemOp::Read => &q.reads[b],
+        MemOp::Write => &q.writes[b],
+    };
+    let &first = list.first()?;
+    let col = match op {
+        MemOp::Read => Cmd::Rd,
+        MemOp::Write => Cmd::Wr,
+    };
+    let offer = |cmd, slot: u32, hit| {
+        let e = q.get(slot);
+        Candidate {
+            cmd,
+            kind: cmd.kind() as u8,
+            slot,
+            hit,
+            seq: e.seq,
+            row: e.row,
+        }
+    };
+    if open_row == CLOSED {
+        let target = if st.pre_target != NIL && list.contains(&st.pre_target) {
+            st.pre_target
+        } else {
+            first
+        };
+        return Some(offer(Cmd::Act, target, false));
+    }
+    match kind {
+        SchedulerKind::Fcfs => {
+            if q.row(first) == open_row {
+                Some(offer(col, first, true))
+            } else {
+                Some(offer(Cmd::Pre, first, false))
+            }
+        }
+        SchedulerKind::FrFcfs => {
+            let hit = list.iter().copied().find(|&s| q.row(s) == open_row);
+            let miss = list.iter().copied().find(|&s| q.row(s) != open_row);
+            match (hit, miss) {
+                (Some(_), Some(m)) if row_hit_cap > 0 && st.streak >= row_hit_cap => {
+                    // Starvation cap: the waiting row gets its turn.
+                    Some(offer(Cmd::Pre, m, false))
+                }
+                (Some(h), _) => Some(offer(col, h, true)),
+                (None, Some(m)) => Some(offer(Cmd::Pre, m, false)),
+                (None, None) => None,
+            }
+        }
+    }
+}
+
+/// Does `a` win over `b` under `kind`?
+#[inline]
+pub fn wins(kind: SchedulerKind, a: &Candidate, b: &Candidate) -> bool {
+    match kind {
+        SchedulerKind::FrFcfs => (!a.hit, a.seq) < (!b.hit, b.seq),
+        SchedulerKind::Fcfs => a.seq < b.seq,
+    }
+}

@@ -1,0 +1,302 @@
+//! [`Dram`]: the whole memory system behind one [`MemoryPort`].
+//!
+//! Requests are decoded by the address mapper and handed to their channel's controller; a full
+//! queue refuses them ([`QueueFull`]). Time on the port is in requester cycles. `advance_to(c)`
+//! simulates every memory cycle that starts before requester cycle `c + 1` — channel by
+//! channel, since channels share nothing — and collects completions, whose finish times are
+//! rounded up to the requester clock. A request arriving at requester cycle `a` reaches the
+//! controller at the first memory cycle at or after that instant. Between events nothing is
+//! simulated, so callers may jump to [`MemoryPort::next_event`] or tick cycle by cycle with the
+//! same result.
+
+use crate::config::DramConfig;
+use crate::controller::Channel;
+use crate::controller::queue::{Entry, NIL};
+use crate::energy::EnergyReport;
+use crate::report::Report;
+use crate::spec::DramSpec;
+use crate::stats::DramStats;
+use rtsim_config::ConfigError;
+use rtsim_core::{MemCompletion, MemOp, MemRequest, MemoryPort, QueueFull};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Requester cycles beyond this are clamped (2^52: ~52 days at 1 GHz), so that conversions
+/// between clocks (ratios up to 1024 : 1) stay within 64 bits.
+pub const MAX_CYCLE: u64 = 1 << 52;
+
+/// A completion waiting for the requester to reach its finish cycle.
+#[derive(Clone, Copy, Debug)]
+struct Ready {
+    seq: u64,
+    c: MemCompletion,
+}
+
+impl PartialEq for Ready {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o) == Ordering::Equal
+    }
+}
+impl Eq for Ready {}
+impl PartialOrd for Ready {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Ready {
+    /// Reversed: the heap's top is the earliest finish (then the earliest produced).
+    fn cmp(&self, o: &Self) -> Ordering {
+        (o.c.finish, o.seq).cmp(&(self.c.finish, self.seq))
+    }
+}
+
+/// The DRAM model: controllers and devices of every channel.
+#[derive(Debug)]
+pub struct Dram {
+    spec: DramSpec,
+    channels: Vec<Channel>,
+    ready: BinaryHeap<Ready>,
+    /// Last requester cycle advanced to.
+    now_req: Option<u64>,
+    /// Memory cycles below this are simulated.
+    mem_done: u64,
+    outstanding: usize,
+    seq: u64,
+    done_seq: u64,
+}
+
+impl Dram {
+    /// Build from a configuration (validated here).
+    pub fn new(config: &DramConfig) -> Result<Self, ConfigError> {
+        Ok(Dram::from_spec(DramSpec::new(config)?))
+    }
+
+    /// Build from a resolved spec.
+    pub fn from_spec(spec: DramSpec) -> Self {
+        let channels = (0..spec.org.channels)
+            .map(|i| Channel::new(&spec, i))
+            .collect();
+        let cap = (spec.controller().read_queue + spec.controller().write_queue) as usize
+            * spec.org.channels as usize;
+        Dram {
+            spec,
+            channels,
+            ready: BinaryHeap::with_capacity(cap),
+            now_req: None,
+            mem_done: 0,
+            outstanding: 0,
+            seq: 0,
+            done_seq: 0,
+        }
+    }
+
+    pub fn spec(&self) -> &DramSpec {
+        &self.spec
+    }
+
+    /// The last requester cycle simulated, if any.
+    pub fn now(&self) -> Option<u64> {
+        self.now_req
+    }
+
+    /// Memory cycles simulated so far.
+    pub fn mem_cycles(&self) -> u64 {
+        self.mem_done
+    }
+
+    /// Advance by one requester cycle (cycle-by-cycle use).
+    pub fn tick(&mut self) {
+        let next = self.now_req.map_or(0, |n| n + 1);
+        self.advance_to(next);
+    }
+
+    /// The channels (for inspection in tests and reports).
+    pub fn channels(&self) -> &[Channel] {
+        &self.channels
+    }
+
+    fn collect(&mut self) {
+        for ch in &mut self.channels {
+            if ch.done.is_empty() {
+                continue;
+            }
+            for c in ch.done.drain(..) {
+                self.done_seq += 1;
+                self.ready.push(Ready {
+                    seq: self.done_seq,
+                    c,
+                });
+            }
+        }
+    }
+
+    /// Stats of each channel, accounted up to the simulated time.
+    pub fn channel_stats(&mut self) -> Vec<DramStats> {
+        let end = self.mem_done;
+        self.channels
+            .iter_mut()
+            .map(|ch| {
+                ch.finish(end);
+                ch.stats.clone()
+            })
+            .collect()
+    }
+
+    /// Stats of the whole memory, accounted up to the simulated time.
+    pub fn stats(&mut self) -> DramStats {
+        let mut total = DramStats::default();
+        for s in self.channel_stats() {
+            total += &s;
+        }
+        total.mem_cycles = self.mem_done;
+        total
+    }
+
+    /// Energy so far.
+    pub fn energy(&mut self) -> EnergyReport {
+        let s = self.stats();
+        EnergyReport::new(&s, &self.spec)
+    }
+
+    /// Advance to requester cycle `end` (simulating refresh and background time) and report.
+    pub fn report(&mut self, end: u64) -> Report {
+        self.advance_to(end);
+        let per_channel = self.channel_stats();
+        let mut total = DramStats::default();
+        for s in &per_channel {
+            total += s;
+        }
+        total.mem_cycles = self.mem_done;
+        Report::new(&self.spec, total, &per_channel)
+    }
+
+    /// The requester cycle whose `advance_to` simulates memory cycle `m` (`u64::MAX` stays).
+    #[inline]
+    fn mem_event_to_req(&self, m: u64) -> u64 {
+        if m == u64::MAX {
+            return u64::MAX;
+        }
+        self.spec
+            .mem_to_req
+            .floor(m)
+            .max(self.now_req.map_or(0, |n| n + 1))
+    }
+
+    /// The earliest requester cycle at which the channel serving `addr` can change state: a
+    /// refused request for that channel cannot be accepted before the cycle after it. Other
+    /// channels' events in between are simulated by the same `advance_to` call, so a requester
+    /// blocked on one channel may jump straight there.
+    pub fn next_event_for(&self, addr: u64) -> Option<u64> {
+        let loc = self.spec.mapper.decode(self.spec.mapper.line_addr(addr));
+        let m = self.channels[loc.channel as usize].next_event();
+        let e = self.mem_event_to_req(m);
+        (e != u64::MAX).then_some(e)
+    }
+
+    /// Legality violations found in checking mode (empty otherwise, and when all is well).
+    pub fn violations(&self) -> Vec<String> {
+        self.channels
+            .iter()
+            .flat_map(|c| c.violations().iter().cloned())
+            .collect()
+    }
+}
+
+impl MemoryPort for Dram {
+    fn try_enqueue(&mut self, req: MemRequest) -> Result<(), QueueFull> {
+        let map = &self.spec.mapper;
+        let line = map.line_addr(req.addr);
+        let loc = map.decode(line);
+        let ch = &mut self.channels[loc.channel as usize];
+        if !ch.has_room(req.op) {
+            ch.refused(req.op);
+            return Err(QueueFull);
+        }
+        let arrival_mem = self
+            .spec
+            .req_to_mem
+            .ceil(req.arrival.min(MAX_CYCLE))
+            .max(self.mem_done);
+        self.seq += 1;
+        ch.enqueue(Entry {
+            id: req.id,
+            addr: line,
+            req_addr: req.addr,
+            op: req.op,
+            arrival_req: req.arrival,
+            arrival_mem,
+            seq: self.seq,
+            rank: loc.rank,
+            bank: loc.rank * self.spec.org.banks_per_rank + loc.bank,
+            row: loc.row,
+            act_for: false,
+            pre_for: false,
+            merged: NIL,
+            next_merged: NIL,
+        });
+        self.outstanding += 1;
+        Ok(())
+    }
+
+    fn advance_to(&mut self, cycle: u64) {
+        let cycle = cycle.min(MAX_CYCLE);
+        if self.now_req.is_some_and(|n| cycle <= n) {
+            return;
+        }
+        // The last memory cycle that starts before requester cycle `cycle + 1`.
+        let limit = self
+            .spec
+            .req_to_mem
+            .ceil(cycle.saturating_add(1))
+            .saturating_sub(1);
+        for ch in &mut self.channels {
+            if ch.next_event() <= limit {
+                ch.run_until(limit);
+            }
+        }
+        self.collect();
+        self.mem_done = limit + 1;
+        self.now_req = Some(cycle);
+    }
+
+    fn next_event(&self) -> Option<u64> {
+        if self.outstanding == 0 {
+            return None;
+        }
+        let ready = self.ready.peek().map_or(u64::MAX, |r| r.c.finish);
+        let m = self
+            .channels
+            .iter()
+            .map(Channel::next_event)
+            .min()
+            .unwrap_or(u64::MAX);
+        let e = ready.min(self.mem_event_to_req(m));
+        (e != u64::MAX).then_some(e)
+    }
+
+    fn drain_completions(&mut self, out: &mut Vec<MemCompletion>) {
+        let Some(now) = self.now_req else { return };
+        while let Some(r) = self.ready.peek() {
+            if r.c.finish > now {
+                break;
+            }
+            out.push(r.c);
+            self.ready.pop();
+            self.outstanding -= 1;
+        }
+    }
+
+    fn outstanding(&self) -> usize {
+        self.outstanding
+    }
+}
+
+/// Convenience for tests and tools: a read or write request.
+pub fn request(id: u64, addr: u64, op: MemOp, arrival: u64) -> MemRequest {
+    MemRequest {
+        id,
+        addr,
+        op,
+        arrival,
+    }
+}

@@ -1,0 +1,134 @@
+//! Runs a request stream through a [`Dram`] to completion, as a standalone DRAM simulator does.
+//!
+//! The stream is issued in order, like a single in-order requester: a request is offered at its
+//! arrival cycle (`When::At`) or `gap` cycles after the previous one was issued (`When::Gap`);
+//! when its queue is full it is retried every cycle until accepted (the driver jumps to the next
+//! event instead of ticking, with the same result), and later requests wait behind it. For USIMM
+//! traces an optional limit on outstanding reads stalls the stream until a read returns.
+
+use crate::dram::Dram;
+use crate::trace::{TraceRecord, When};
+use rtsim_core::{MemCompletion, MemOp, MemRequest, MemoryPort};
+
+/// Options of a run.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DriveOptions {
+    /// Stall while this many reads are outstanding (USIMM traces).
+    pub max_outstanding_reads: Option<u32>,
+}
+
+/// What happened at the requester side.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DriveSummary {
+    pub requests: u64,
+    pub reads: u64,
+    pub writes: u64,
+    /// Requester cycles requests waited beyond their arrival (full queues, read limit).
+    pub stall_cycles: u64,
+    /// Requester cycle of the last completion.
+    pub end_cycle: u64,
+}
+
+struct State<'a> {
+    dram: &'a mut Dram,
+    buf: Vec<MemCompletion>,
+    reads_out: u64,
+    end: u64,
+}
+
+impl State<'_> {
+    #[inline]
+    fn advance(&mut self, cycle: u64) {
+        self.dram.advance_to(cycle);
+        self.buf.clear();
+        self.dram.drain_completions(&mut self.buf);
+        for c in &self.buf {
+            if c.op == MemOp::Read {
+                self.reads_out -= 1;
+            }
+            self.end = self.end.max(c.finish);
+        }
+    }
+    #[inline]
+    fn next_cycle(&self) -> u64 {
+        self.dram.now().map_or(0, |n| n + 1)
+    }
+}
+
+/// Run `records` through `dram` until every request has completed. `on_progress` is called with
+/// the number of requests issued so far every 65 536 requests.
+pub fn drive<E>(
+    dram: &mut Dram,
+    records: impl IntoIterator<Item = Result<TraceRecord, E>>,
+    opts: DriveOptions,
+    mut on_progress: impl FnMut(u64),
+) -> Result<DriveSummary, E> {
+    let mut st = State {
+        dram,
+        buf: Vec::with_capacity(1024),
+        reads_out: 0,
+        end: 0,
+    };
+    let mut sum = DriveSummary::default();
+    let mut last_issue = 0u64;
+    for (id, rec) in records.into_iter().enumerate() {
+        let rec = rec?;
+        let wanted = match rec.when {
+            When::At(c) => c,
+            When::Gap(g) => last_issue.saturating_add(g),
+        };
+        let mut t = wanted.max(st.next_cycle());
+        if rec.op == MemOp::Read {
+            if let Some(limit) = opts.max_outstanding_reads {
+                while st.reads_out >= u64::from(limit) {
+                    let e = st
+                        .dram
+                        .next_event()
+                        .expect("outstanding reads imply a future event");
+                    st.advance(e.max(t.saturating_sub(1)));
+                    t = t.max(st.next_cycle());
+                }
+            }
+        }
+        loop {
+            if t > 0 && st.dram.now().is_none_or(|n| n < t - 1) {
+                st.advance(t - 1);
+            }
+            let req = MemRequest {
+                id: id as u64,
+                addr: rec.addr,
+                op: rec.op,
+                arrival: t,
+            };
+            if st.dram.try_enqueue(req).is_ok() {
+                break;
+            }
+            // Full: nothing changes for this channel before its next event; retry the cycle
+            // after it (other channels are simulated up to then on the way).
+            let e = st
+                .dram
+                .next_event_for(rec.addr)
+                .expect("a full queue implies a future event");
+            st.advance(e.max(t));
+            t = st.next_cycle();
+        }
+        sum.stall_cycles += t - wanted;
+        last_issue = t;
+        sum.requests += 1;
+        match rec.op {
+            MemOp::Read => {
+                sum.reads += 1;
+                st.reads_out += 1;
+            }
+            MemOp::Write => sum.writes += 1,
+        }
+        if sum.requests % 65_536 == 0 {
+            on_progress(sum.requests);
+        }
+    }
+    while let Some(e) = st.dram.next_event() {
+        st.advance(e);
+    }
+    sum.end_cycle = st.end;
+    Ok(sum)
+}

@@ -1,0 +1,298 @@
+//! The timing engine of one channel: enforces the constraint table and tracks bank and rank
+//! state (open rows, power-down).
+//!
+//! Issuing a command at cycle `t` raises "earliest allowed" times for every later command kind
+//! at each level the table names (bank, bank group, rank, other ranks, channel) and records
+//! activation windows (tFAW, t32AW) in per-rank rings. The earliest legal cycle of a command is
+//! then the maximum of four lookups — O(1), which keeps the scheduler cheap. State rules (ACT
+//! needs a closed bank, RD/WR the right open row, REF all banks closed, nothing but PDX while
+//! powered down) are checked separately by [`Engine::state_allows`]. One command per channel
+//! per cycle is the controller's rule; [`Engine::can_issue`] includes it.
+
+use crate::spec::DramSpec;
+use crate::spec::constraints::{Cmd, Scope};
+
+/// Row number meaning "no row open".
+pub const CLOSED: u32 = u32::MAX;
+const K: usize = Cmd::KINDS;
+/// Bank commands (ACT, PRE, RD, WR) have the kinds below this; rank commands above. Bank and
+/// bank-group rules only ever name bank commands as the next command, so the per-bank and
+/// per-group tables are this narrow (32 bytes per bank: cache-friendly scans).
+const BK: usize = 4;
+
+/// A rule as the engine applies it: 8 bytes, so that a command's rules share a cache line.
+#[derive(Clone, Copy, Debug)]
+struct Applied {
+    scope: Scope,
+    kind: u8,
+    cycles: u32,
+}
+
+/// An activation window: at most `window` ACTs in any `cycles` cycles of one rank.
+#[derive(Clone, Debug)]
+struct Window {
+    window: usize,
+    cycles: u64,
+    /// Ring of the last `window` ACT times, per rank.
+    rings: Vec<Vec<u64>>,
+    heads: Vec<usize>,
+    counts: Vec<usize>,
+}
+
+/// Timing and state of one channel.
+#[derive(Clone, Debug)]
+pub struct Engine {
+    ranks: usize,
+    banks_per_rank: usize,
+    /// Rules grouped by the issued command (RDA also gets RD's rules, WRA WR's), window rules
+    /// excluded.
+    by_prev: Vec<Vec<Applied>>,
+    windows: Vec<Window>,
+    bank_next: Vec<[u64; BK]>,
+    group_next: Vec<[u64; BK]>,
+    rank_next: Vec<[u64; K]>,
+    chan_next: [u64; K],
+    /// For each issued command, a bit per next-command kind whose earliest time it can raise
+    /// beyond its own bank (bank group, rank, other ranks, channel, activation windows).
+    shared_raise: Vec<u8>,
+    /// Rank and bank-group index of each flat bank.
+    rank_of: Vec<u32>,
+    group_of: Vec<u32>,
+    open_row: Vec<u32>,
+    act_time: Vec<u64>,
+    open_in_rank: Vec<u32>,
+    powered_down: Vec<bool>,
+    last_issue: Option<u64>,
+}
+
+impl Engine {
+    pub fn new(spec: &DramSpec) -> Self {
+        let o = &spec.org;
+        let ranks = o.ranks as usize;
+        let banks_per_rank = o.banks_per_rank as usize;
+        let mut by_prev = vec![Vec::new(); Cmd::ALL.len()];
+        let mut windows = Vec::new();
+        for c in &spec.constraints {
+            if c.cycles == 0 {
+                continue; // can never bind
+            }
+            assert!(
+                c.next.kind() < BK || !matches!(c.scope, Scope::Bank | Scope::BankGroup),
+                "bank-level rule for a rank command: {}",
+                c.what
+            );
+            if c.window > 1 {
+                windows.push(Window {
+                    window: usize::from(c.window),
+                    cycles: c.cycles,
+                    rings: vec![vec![0; usize::from(c.window)]; ranks],
+                    heads: vec![0; ranks],
+                    counts: vec![0; ranks],
+                });
+                continue;
+            }
+            for issued in Cmd::ALL {
+                if c.prev.covers(issued) {
+                    by_prev[issued as usize].push(Applied {
+                        scope: c.scope,
+                        kind: c.next.kind() as u8,
+                        // Timing values are validated to at most 10^7 cycles, sums far below 2^32.
+                        cycles: u32::try_from(c.cycles).unwrap_or(u32::MAX),
+                    });
+                }
+            }
+        }
+        let mut shared_raise = vec![0u8; Cmd::ALL.len()];
+        for issued in Cmd::ALL {
+            for c in &by_prev[issued as usize] {
+                if c.scope != Scope::Bank {
+                    shared_raise[issued as usize] |= 1 << c.kind;
+                }
+            }
+        }
+        if !windows.is_empty() {
+            shared_raise[Cmd::Act as usize] |= 1 << Cmd::Act.kind();
+        }
+        Engine {
+            shared_raise,
+            ranks,
+            banks_per_rank,
+            by_prev,
+            windows,
+            bank_next: vec![[0; BK]; ranks * banks_per_rank],
+            group_next: vec![[0; BK]; ranks * o.bank_groups as usize],
+            rank_next: vec![[0; K]; ranks],
+            chan_next: [0; K],
+            rank_of: (0..ranks * banks_per_rank)
+                .map(|b| (b / banks_per_rank) as u32)
+                .collect(),
+            group_of: (0..ranks * banks_per_rank)
+                .map(|b| {
+                    let (r, k) = (b / banks_per_rank, b % banks_per_rank);
+                    (r * o.bank_groups as usize + k / o.banks_per_group as usize) as u32
+                })
+                .collect(),
+            open_row: vec![CLOSED; ranks * banks_per_rank],
+            act_time: vec![0; ranks * banks_per_rank],
+            open_in_rank: vec![0; ranks],
+            powered_down: vec![false; ranks],
+            last_issue: None,
+        }
+    }
+
+    /// Flat bank index within the channel.
+    #[inline]
+    pub fn bank_index(&self, rank: u32, bank: u32) -> usize {
+        rank as usize * self.banks_per_rank + bank as usize
+    }
+
+    /// Earliest cycle at which `cmd` satisfies every timing rule at flat bank `b` (for rank
+    /// commands any bank of the rank). Ignores state and the one-command-per-cycle rule.
+    #[inline]
+    pub fn earliest(&self, cmd: Cmd, b: usize) -> u64 {
+        let k = cmd.kind();
+        let rank = self.rank_of[b] as usize;
+        let mut t = self.rank_next[rank][k].max(self.chan_next[k]);
+        if !cmd.is_rank_command() {
+            t = t
+                .max(self.bank_next[b][k])
+                .max(self.group_next[self.group_of[b] as usize][k]);
+        }
+        t
+    }
+
+    /// [`Engine::earliest`] for a bank command given by its kind index (`Cmd::kind`).
+    #[inline(always)]
+    pub fn earliest_bank(&self, k: usize, b: usize) -> u64 {
+        self.rank_next[self.rank_of[b] as usize][k]
+            .max(self.chan_next[k])
+            .max(self.bank_next[b][k])
+            .max(self.group_next[self.group_of[b] as usize][k])
+    }
+
+    /// Does the bank/rank state allow `cmd` (to `row`, for ACT and column commands)?
+    pub fn state_allows(&self, cmd: Cmd, b: usize, row: u32) -> bool {
+        let rank = b / self.banks_per_rank;
+        if self.powered_down[rank] {
+            return cmd == Cmd::Pdx;
+        }
+        match cmd {
+            Cmd::Act => self.open_row[b] == CLOSED,
+            Cmd::Pre => self.open_row[b] != CLOSED,
+            Cmd::Rd | Cmd::Wr | Cmd::Rda | Cmd::Wra => {
+                self.open_row[b] != CLOSED && self.open_row[b] == row
+            }
+            Cmd::Ref => self.open_in_rank[rank] == 0,
+            Cmd::Pde => true,
+            Cmd::Pdx => false,
+        }
+    }
+
+    /// May `cmd` be issued at cycle `t`: state, timing and one command per cycle.
+    pub fn can_issue(&self, cmd: Cmd, b: usize, row: u32, t: u64) -> bool {
+        self.last_issue.is_none_or(|l| t > l)
+            && self.state_allows(cmd, b, row)
+            && t >= self.earliest(cmd, b)
+    }
+
+    /// Issue `cmd` at cycle `t` at flat bank `b` (any bank of the rank for rank commands).
+    /// The caller has checked [`Engine::can_issue`].
+    pub fn issue(&mut self, cmd: Cmd, b: usize, row: u32, t: u64) {
+        debug_assert!(self.can_issue(cmd, b, row, t), "{cmd:?} at {t} on bank {b}");
+        self.last_issue = Some(t);
+        let rank = self.rank_of[b] as usize;
+        let group = self.group_of[b] as usize;
+        let rules = &self.by_prev[cmd as usize];
+        for c in rules {
+            let at = t + u64::from(c.cycles);
+            let k = usize::from(c.kind);
+            match c.scope {
+                Scope::Bank => raise(&mut self.bank_next[b][k], at),
+                Scope::BankGroup => raise(&mut self.group_next[group][k], at),
+                Scope::Rank => raise(&mut self.rank_next[rank][k], at),
+                Scope::Channel => raise(&mut self.chan_next[k], at),
+                Scope::OtherRanks => {
+                    for r in (0..self.ranks).filter(|&r| r != rank) {
+                        raise(&mut self.rank_next[r][k], at);
+                    }
+                }
+            }
+        }
+        match cmd {
+            Cmd::Act => {
+                self.open_row[b] = row;
+                self.act_time[b] = t;
+                self.open_in_rank[rank] += 1;
+                let act = Cmd::Act.kind();
+                for w in &mut self.windows {
+                    let ring = &mut w.rings[rank];
+                    let head = &mut w.heads[rank];
+                    ring[*head] = t;
+                    *head = (*head + 1) % w.window;
+                    w.counts[rank] = (w.counts[rank] + 1).min(w.window);
+                    if w.counts[rank] == w.window {
+                        // The oldest in the ring is the w-th most recent ACT.
+                        raise(&mut self.rank_next[rank][act], ring[*head] + w.cycles);
+                    }
+                }
+            }
+            Cmd::Pre | Cmd::Rda | Cmd::Wra => {
+                self.open_row[b] = CLOSED;
+                self.open_in_rank[rank] -= 1;
+            }
+            Cmd::Pde => self.powered_down[rank] = true,
+            Cmd::Pdx => self.powered_down[rank] = false,
+            Cmd::Rd | Cmd::Wr | Cmd::Ref => {}
+        }
+    }
+
+    /// Kinds (bit `1 << kind`) whose earliest time at banks other than its own issuing `cmd`
+    /// may raise: the scheduler recomputes only offers of these kinds after an issue.
+    #[inline]
+    pub fn shared_raise(&self, cmd: Cmd) -> u8 {
+        self.shared_raise[cmd as usize]
+    }
+
+    /// The open row of flat bank `b`, or [`CLOSED`].
+    #[inline]
+    pub fn open_row(&self, b: usize) -> u32 {
+        self.open_row[b]
+    }
+
+    /// Cycle of the last ACT to flat bank `b`.
+    #[inline]
+    pub fn act_time(&self, b: usize) -> u64 {
+        self.act_time[b]
+    }
+
+    /// Number of open banks in `rank`.
+    #[inline]
+    pub fn open_banks(&self, rank: usize) -> u32 {
+        self.open_in_rank[rank]
+    }
+
+    #[inline]
+    pub fn is_powered_down(&self, rank: usize) -> bool {
+        self.powered_down[rank]
+    }
+
+    /// Cycle of the last command issued on the channel.
+    pub fn last_issue(&self) -> Option<u64> {
+        self.last_issue
+    }
+
+    pub fn banks_per_rank(&self) -> usize {
+        self.banks_per_rank
+    }
+
+    pub fn ranks(&self) -> usize {
+        self.ranks
+    }
+}
+
+#[inline]
+fn raise(slot: &mut u64, at: u64) {
+    if at > *slot {
+        *slot = at;
+    }
+}
