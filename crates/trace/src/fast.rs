@@ -563,7 +563,7 @@ fn portable_tri4(p: &Tri4, ray: &Ray, tmin: f32, tmax: f32) -> Option<(usize, f3
             && (0.0..=1.0).contains(&u)
             && v >= 0.0
             && u + v <= 1.0
-            && t >= tmin
+            && t > tmin
             && t < tmax;
         if ok && best.is_none_or(|b| t < b.1) {
             best = Some((l, t, u, v));
@@ -638,7 +638,7 @@ mod sse {
             let ok = _mm_and_ps(
                 ok_uv,
                 _mm_and_ps(
-                    _mm_cmpge_ps(t, _mm_set1_ps(tmin)),
+                    _mm_cmpgt_ps(t, _mm_set1_ps(tmin)),
                     _mm_cmplt_ps(t, _mm_set1_ps(tmax)),
                 ),
             );

@@ -1,7 +1,8 @@
 //! Ray–triangle tests.
 //!
 //! All three report the same hit convention: distance `t` in units of the ray direction's
-//! length, accepted when `tmin <= t < tmax`, and barycentrics `(u, v)` where `u` weights the
+//! length, accepted when `tmin < t < tmax` (a hit exactly at the origin of a ray with
+//! `tmin = 0` is not reported, as in Embree), and barycentrics `(u, v)` where `u` weights the
 //! triangle's second vertex and `v` its third (`P = (1-u-v)·v0 + u·v1 + v·v2`). Triangles are
 //! two-sided. Away from edges the three agree to float precision (property-tested below); on
 //! an edge each may decide either way.
@@ -98,7 +99,7 @@ pub fn moller_trumbore(rec: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Opti
         return None;
     }
     let t = e2.dot(q) * inv;
-    (t >= tmin && t < tmax).then_some(TriHit { t, u, v })
+    (t > tmin && t < tmax).then_some(TriHit { t, u, v })
 }
 
 impl TriKernel for Plucker {
@@ -142,18 +143,18 @@ pub fn plucker(tri: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHi
     let na = n.dot(a);
     // Decide the interval on t·(n·d), so the divide happens only on a hit.
     let in_range = if nd > 0.0 {
-        na >= tmin * nd && na < tmax * nd
+        na > tmin * nd && na < tmax * nd
     } else {
-        na <= tmin * nd && na > tmax * nd
+        na < tmin * nd && na > tmax * nd
     };
     if !in_range {
         return None;
     }
     // The one divide, on a hit. Re-check the interval after rounding so all kernels share the
-    // exact acceptance rule `tmin <= t < tmax`.
+    // exact acceptance rule `tmin < t < tmax`.
     let inv = 1.0 / nd;
     let t = na * inv;
-    if !(t >= tmin && t < tmax) {
+    if !(t > tmin && t < tmax) {
         return None;
     }
     Some(TriHit {
@@ -235,7 +236,7 @@ pub fn wald(w: &WaldTri, ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
     }
     let nd = 1.0 / denom;
     let t = (w.n_d - o[k] - w.n_u * o[ku] - w.n_v * o[kv]) * nd;
-    if !(t >= tmin && t < tmax) {
+    if !(t > tmin && t < tmax) {
         return None;
     }
     let hu = o[ku] + t * d[ku];
@@ -347,6 +348,18 @@ mod tests {
         for ray in [outside, behind, short, parallel, late] {
             assert_eq!(all(&tri, &ray), [None, None, None], "{ray:?}");
         }
+    }
+
+    #[test]
+    fn origin_on_the_surface_is_not_a_hit() {
+        // tmin < t: a ray leaving the triangle it starts on does not hit it at t = 0.
+        let ray = Ray::new(
+            Vec3::new(0.25, 0.25, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            0.0,
+            f32::INFINITY,
+        );
+        assert_eq!(all(&unit_tri(), &ray), [None, None, None]);
     }
 
     #[test]
