@@ -172,13 +172,13 @@ impl FastBvh {
         Ok(LEAF | ((count as u32 - 1) << COUNT_SHIFT) | first as u32)
     }
 
-    /// Closest hit in `[tmin, tmax)`.
+    /// Closest hit with `tmin < t < tmax`.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray) -> Hit {
         self.dispatch::<false>(ray)
     }
 
-    /// Any hit in `[tmin, tmax)`.
+    /// Any hit with `tmin < t < tmax`.
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
         self.dispatch::<true>(ray).is_hit()

@@ -121,10 +121,9 @@ impl Tracer {
         }
     }
 
-    /// The closest hit in `[ray.tmin, ray.tmax)`.
+    /// A traversal result in scene terms (BVH slot to scene triangle id).
     #[inline]
-    pub fn closest_hit(&self, ray: &Ray, c: &mut RayCounters) -> Hit {
-        let h = self.run::<false>(ray, c);
+    fn scene_hit(&self, h: SlotHit) -> Hit {
         let prim = if h.is_hit() {
             self.bvh.prim_ids[h.slot as usize]
         } else {
@@ -138,7 +137,13 @@ impl Tracer {
         }
     }
 
-    /// Whether anything is hit in `[ray.tmin, ray.tmax)` (occlusion).
+    /// The closest hit with `ray.tmin < t < ray.tmax`.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray, c: &mut RayCounters) -> Hit {
+        self.scene_hit(self.run::<false>(ray, c))
+    }
+
+    /// Whether anything is hit with `ray.tmin < t < ray.tmax` (occlusion).
     #[inline]
     pub fn any_hit(&self, ray: &Ray, c: &mut RayCounters) -> bool {
         self.run::<true>(ray, c).is_hit()
@@ -148,18 +153,7 @@ impl Tracer {
     /// exit; the closest without).
     #[inline]
     pub fn any_hit_detail(&self, ray: &Ray, c: &mut RayCounters) -> Hit {
-        let h = self.run::<true>(ray, c);
-        let prim = if h.is_hit() {
-            self.bvh.prim_ids[h.slot as usize]
-        } else {
-            NO_HIT
-        };
-        Hit {
-            t: h.t,
-            prim,
-            u: h.u,
-            v: h.v,
-        }
+        self.scene_hit(self.run::<true>(ray, c))
     }
 }
 
