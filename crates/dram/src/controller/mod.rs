@@ -17,7 +17,7 @@ pub mod row_policy;
 pub mod scheduler;
 
 use crate::checker::Checker;
-use crate::config::{ControllerConfig, PowerDownKind};
+use crate::config::{ControllerConfig, PowerDownKind, SchedulerKind};
 use crate::engine::{CLOSED, Engine};
 use crate::spec::DramSpec;
 use crate::spec::Ratio;
@@ -46,16 +46,10 @@ pub struct Channel {
     engine: Engine,
     q: RequestQueues,
     ctl: ControllerConfig,
-    /// Each bank's offer (valid where `has` is set), recomputed lazily for `dirty` banks.
-    cands: Vec<Candidate>,
-    has: BankSet,
+    /// Each bank's offer, recomputed lazily for `dirty` banks.
+    offers: Offers,
     /// Alternative offers (PRE behind a row hit; only without row-hit protection).
-    alts: Vec<Candidate>,
-    has_alt: BankSet,
-    /// Earliest legal cycle of each offer and alternative, kept current: recomputed when the
-    /// offer changes and, after each command, for offers of a kind that command can delay.
-    ready: Vec<u64>,
-    alt_ready: Vec<u64>,
+    alts: Offers,
     dirty: Vec<bool>,
     dirty_list: Vec<u32>,
     sched: Vec<BankSched>,
@@ -101,12 +95,8 @@ impl Channel {
             engine: Engine::new(spec),
             q: RequestQueues::new(policy, banks, o.ranks as usize),
             ctl,
-            cands: vec![Candidate::NONE; banks],
-            has: BankSet::new(banks),
-            alts: vec![Candidate::NONE; banks],
-            has_alt: BankSet::new(banks),
-            ready: vec![u64::MAX; banks],
-            alt_ready: vec![u64::MAX; banks],
+            offers: Offers::new(banks),
+            alts: Offers::new(banks),
             dirty: vec![true; banks],
             dirty_list: (0..banks as u32).collect(),
             sched: vec![BankSched::default(); banks],
@@ -351,22 +341,9 @@ impl Channel {
                 }
                 _ => None,
             };
-            match offer {
-                Some(c) => {
-                    self.cands[b] = c;
-                    self.ready[b] = self.engine.earliest_bank(c.kind.into(), b);
-                    self.has.insert(b);
-                }
-                None => self.has.remove(b),
-            }
-            match alt {
-                Some(a) => {
-                    self.alts[b] = a;
-                    self.alt_ready[b] = self.engine.earliest_bank(a.kind.into(), b);
-                    self.has_alt.insert(b);
-                }
-                None => self.has_alt.remove(b),
-            }
+            let kind = self.ctl.scheduler;
+            self.offers.set(b, offer, kind, &self.engine);
+            self.alts.set(b, alt, kind, &self.engine);
         }
     }
 
@@ -426,22 +403,29 @@ impl Channel {
         }
         // Requests.
         self.settle_candidates();
-        let kind = self.ctl.scheduler;
-        let mut best: Option<(usize, Candidate)> = None;
-        for b in self.has.iter() {
-            let mut c = self.cands[b];
-            if self.ready[b] > t {
-                // The hit cannot issue; without row-hit protection its PRE alternative may.
-                if !self.has_alt.contains(b) || self.alt_ready[b] > t {
-                    continue;
-                }
-                c = self.alts[b];
-            }
-            if best.is_none_or(|(_, w)| scheduler::wins(kind, &c, &w)) {
-                best = Some((b, c));
+        // The ready offer of highest priority (the lowest bank among equals); an offer that
+        // cannot issue yields to its bank's alternative, if that can.
+        let (o, a) = (&self.offers, &self.alts);
+        let mut best = (u64::MAX, usize::MAX);
+        for b in 0..o.ready.len() {
+            let p = if o.ready[b] <= t {
+                o.priority[b]
+            } else if a.ready[b] <= t {
+                a.priority[b]
+            } else {
+                continue;
+            };
+            if p < best.0 {
+                best = (p, b);
             }
         }
-        if let Some((b, c)) = best {
+        if best.1 != usize::MAX {
+            let b = best.1;
+            let c = if o.ready[b] <= t {
+                o.cand[b]
+            } else {
+                a.cand[b]
+            };
             return Some(Choice {
                 cmd: c.cmd,
                 bank: b,
@@ -542,17 +526,9 @@ impl Channel {
         if mask == 0 {
             return;
         }
-        for b in self.has.iter() {
-            let k = self.cands[b].kind;
-            if mask & (1 << k) != 0 {
-                self.ready[b] = self.engine.earliest_bank(k.into(), b);
-            }
-        }
-        for b in self.has_alt.iter() {
-            let k = self.alts[b].kind;
-            if mask & (1 << k) != 0 {
-                self.alt_ready[b] = self.engine.earliest_bank(k.into(), b);
-            }
+        self.offers.refresh(mask, &self.engine);
+        if !self.ctl.protect_row_hits {
+            self.alts.refresh(mask, &self.engine);
         }
     }
 
@@ -659,11 +635,9 @@ impl Channel {
             }
         }
         self.settle_candidates();
-        for b in self.has.iter() {
-            e = e.min(self.ready[b]);
-        }
-        for b in self.has_alt.iter() {
-            e = e.min(self.alt_ready[b]);
+        e = e.min(self.offers.earliest());
+        if !self.ctl.protect_row_hits {
+            e = e.min(self.alts.earliest());
         }
         if e == u64::MAX { e } else { e.max(from) }
     }
@@ -715,60 +689,66 @@ impl Channel {
     }
 }
 
-/// A set of banks as a bitmask, iterated in bank order.
+/// One offer per bank, as parallel arrays so that the per-cycle scans over the banks are
+/// short, branch-light loops: the candidate, its kind, its priority and the earliest cycle at
+/// which timing allows it (`u64::MAX` where the bank has no offer).
 #[derive(Clone, Debug)]
-struct BankSet {
-    words: Vec<u64>,
+struct Offers {
+    cand: Vec<Candidate>,
+    /// `Cmd::kind` of the offer, or [`NO_KIND`].
+    kind: Vec<u8>,
+    /// [`scheduler::priority`] of the offer (smaller wins).
+    priority: Vec<u64>,
+    /// Earliest legal cycle, kept current: recomputed when the offer changes and, after each
+    /// command, for offers of a kind that command can delay.
+    ready: Vec<u64>,
 }
 
-impl BankSet {
-    fn new(n: usize) -> Self {
-        BankSet {
-            words: vec![0; n.div_ceil(64)],
+/// The kind of a bank without an offer: no command's mask has this bit.
+const NO_KIND: u8 = 7;
+const _: () = assert!(Cmd::KINDS <= NO_KIND as usize);
+
+impl Offers {
+    fn new(banks: usize) -> Self {
+        Offers {
+            cand: vec![Candidate::NONE; banks],
+            kind: vec![NO_KIND; banks],
+            priority: vec![u64::MAX; banks],
+            ready: vec![u64::MAX; banks],
         }
     }
-    #[inline]
-    fn insert(&mut self, b: usize) {
-        self.words[b / 64] |= 1 << (b % 64);
-    }
-    #[inline]
-    fn remove(&mut self, b: usize) {
-        self.words[b / 64] &= !(1 << (b % 64));
-    }
-    #[inline]
-    fn contains(&self, b: usize) -> bool {
-        self.words[b / 64] & (1 << (b % 64)) != 0
-    }
-    /// The members, in increasing order.
-    #[inline]
-    fn iter(&self) -> BankIter<'_> {
-        BankIter {
-            word: self.words.first().copied().unwrap_or(0),
-            index: 0,
-            words: &self.words,
-        }
-    }
-}
 
-/// Iterator over a [`BankSet`]'s members.
-struct BankIter<'a> {
-    word: u64,
-    index: usize,
-    words: &'a [u64],
-}
-
-impl Iterator for BankIter<'_> {
-    type Item = usize;
-    #[inline(always)]
-    fn next(&mut self) -> Option<usize> {
-        loop {
-            if self.word != 0 {
-                let b = self.word.trailing_zeros() as usize;
-                self.word &= self.word - 1;
-                return Some(self.index * 64 + b);
+    /// Bank `b` offers `c` (or nothing).
+    #[inline]
+    fn set(&mut self, b: usize, c: Option<Candidate>, sched: SchedulerKind, engine: &Engine) {
+        match c {
+            Some(c) => {
+                self.cand[b] = c;
+                self.kind[b] = c.kind;
+                self.priority[b] = scheduler::priority(sched, &c);
+                self.ready[b] = engine.earliest_bank(c.kind.into(), b);
             }
-            self.index += 1;
-            self.word = *self.words.get(self.index)?;
+            None => {
+                self.kind[b] = NO_KIND;
+                self.priority[b] = u64::MAX;
+                self.ready[b] = u64::MAX;
+            }
         }
+    }
+
+    /// Recompute the ready times of offers whose kind is in `mask` (bit `1 << kind`).
+    #[inline]
+    fn refresh(&mut self, mask: u8, engine: &Engine) {
+        for (b, (&k, r)) in self.kind.iter().zip(&mut self.ready).enumerate() {
+            if mask & (1 << k) != 0 {
+                *r = engine.earliest_bank(k.into(), b);
+            }
+        }
+    }
+
+    /// The earliest ready time of any offer (`u64::MAX` if none).
+    #[inline]
+    fn earliest(&self) -> u64 {
+        self.ready.iter().copied().min().unwrap_or(u64::MAX)
     }
 }

@@ -152,11 +152,20 @@ pub fn bank_candidate(
     }
 }
 
+/// The priority of `c` under `kind`, smaller first: FR-FCFS orders by (not a hit, age), FCFS
+/// by age. Ages (request sequence numbers) stay below 2^63, so the two FR-FCFS keys pack into
+/// one word.
+#[inline]
+pub fn priority(kind: SchedulerKind, c: &Candidate) -> u64 {
+    debug_assert!(c.seq < 1 << 63);
+    match kind {
+        SchedulerKind::FrFcfs => (u64::from(!c.hit) << 63) | c.seq,
+        SchedulerKind::Fcfs => c.seq,
+    }
+}
+
 /// Does `a` win over `b` under `kind`?
 #[inline]
 pub fn wins(kind: SchedulerKind, a: &Candidate, b: &Candidate) -> bool {
-    match kind {
-        SchedulerKind::FrFcfs => (!a.hit, a.seq) < (!b.hit, b.seq),
-        SchedulerKind::Fcfs => a.seq < b.seq,
-    }
+    priority(kind, a) < priority(kind, b)
 }
