@@ -343,7 +343,9 @@ impl Channel {
             };
             let kind = self.ctl.scheduler;
             self.offers.set(b, offer, kind, &self.engine);
-            self.alts.set(b, alt, kind, &self.engine);
+            if !self.ctl.protect_row_hits {
+                self.alts.set(b, alt, kind, &self.engine);
+            }
         }
     }
 
@@ -463,7 +465,6 @@ impl Channel {
         }
         let act_time = self.engine.act_time(b);
         self.engine.issue(cmd, b, c.row, t);
-        self.refresh_ready(self.engine.shared_raise(cmd));
         if let Some(ch) = &mut self.checker {
             ch.record(cmd, b, c.row, t);
         }
@@ -518,6 +519,10 @@ impl Channel {
             }
         }
         self.mark_dirty(b);
+        // Settle the changed offers first, so that the refresh below, which also recomputes
+        // the earliest offer, sees them.
+        self.settle_candidates();
+        self.refresh_ready(self.engine.shared_raise(cmd));
     }
 
     /// Recompute the ready times of offers whose kind is in `mask` (bit `1 << kind`).
@@ -702,6 +707,10 @@ struct Offers {
     /// Earliest legal cycle, kept current: recomputed when the offer changes and, after each
     /// command, for offers of a kind that command can delay.
     ready: Vec<u64>,
+    /// The minimum of `ready` where `min_ok`; kept by [`Offers::refresh`], which scans every
+    /// bank anyway, and by [`Offers::set`] unless it raises the bank that held the minimum.
+    min: u64,
+    min_ok: bool,
 }
 
 /// The kind of a bank without an offer: no command's mask has this bit.
@@ -715,40 +724,58 @@ impl Offers {
             kind: vec![NO_KIND; banks],
             priority: vec![u64::MAX; banks],
             ready: vec![u64::MAX; banks],
+            min: u64::MAX,
+            min_ok: true,
         }
     }
 
     /// Bank `b` offers `c` (or nothing).
     #[inline]
     fn set(&mut self, b: usize, c: Option<Candidate>, sched: SchedulerKind, engine: &Engine) {
-        match c {
+        let old = self.ready[b];
+        let new = match c {
             Some(c) => {
                 self.cand[b] = c;
                 self.kind[b] = c.kind;
                 self.priority[b] = scheduler::priority(sched, &c);
-                self.ready[b] = engine.earliest_bank(c.kind.into(), b);
+                engine.earliest_bank(c.kind.into(), b)
             }
             None => {
                 self.kind[b] = NO_KIND;
                 self.priority[b] = u64::MAX;
-                self.ready[b] = u64::MAX;
+                u64::MAX
             }
+        };
+        self.ready[b] = new;
+        if new <= self.min {
+            self.min = new;
+        } else if old == self.min {
+            self.min_ok = false;
         }
     }
 
-    /// Recompute the ready times of offers whose kind is in `mask` (bit `1 << kind`).
+    /// Recompute the ready times of offers whose kind is in `mask` (bit `1 << kind`), and
+    /// with them the minimum.
     #[inline]
     fn refresh(&mut self, mask: u8, engine: &Engine) {
+        let mut min = u64::MAX;
         for (b, (&k, r)) in self.kind.iter().zip(&mut self.ready).enumerate() {
             if mask & (1 << k) != 0 {
                 *r = engine.earliest_bank(k.into(), b);
             }
+            min = min.min(*r);
         }
+        self.min = min;
+        self.min_ok = true;
     }
 
     /// The earliest ready time of any offer (`u64::MAX` if none).
     #[inline]
-    fn earliest(&self) -> u64 {
-        self.ready.iter().copied().min().unwrap_or(u64::MAX)
+    fn earliest(&mut self) -> u64 {
+        if !self.min_ok {
+            self.min = self.ready.iter().copied().min().unwrap_or(u64::MAX);
+            self.min_ok = true;
+        }
+        self.min
     }
 }
