@@ -2,6 +2,7 @@
 //! memory image (`memory.*`), check the tree's invariants and print a table: SAH cost, node
 //! and leaf counts, leaf depth, triangles per leaf, build time and image sizes.
 
+use super::thousands;
 use crate::cli::SceneArgs;
 use crate::run_config::RunConfig;
 use anyhow::{Context, Result};
@@ -143,18 +144,6 @@ fn format_table(
     let mut out = String::new();
     for (k, v) in rows {
         let _ = writeln!(out, "{k:<w$}  {v}");
-    }
-    out
-}
-
-fn thousands(v: u64) -> String {
-    let s = v.to_string();
-    let mut out = String::with_capacity(s.len() + s.len() / 3);
-    for (i, c) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
-            out.push(',');
-        }
-        out.push(c);
     }
     out
 }

@@ -1,6 +1,7 @@
 //! `rtsim scenes`: the built-in and descriptor scenes, with their kind, triangle count (known
 //! without loading), whether their files are in the scene directory, and a description.
 
+use super::thousands;
 use crate::cli::ScenesArgs;
 use anyhow::Result;
 use std::io::Write;
@@ -65,19 +66,6 @@ pub fn run(args: ScenesArgs) -> Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         r => Ok(r?),
     }
-}
-
-/// `1234567` → `1,234,567`.
-fn thousands(n: u64) -> String {
-    let s = n.to_string();
-    let mut out = String::with_capacity(s.len() + s.len() / 3);
-    for (i, c) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
-            out.push(',');
-        }
-        out.push(c);
-    }
-    out
 }
 
 #[cfg(test)]
