@@ -273,8 +273,12 @@ impl Report {
             &mut o,
             "activates / precharges",
             format!(
-                "{} / {} (+{} auto, +{} for refresh)",
-                self.activates, st.precharges, st.auto_precharges, st.refresh_precharges
+                "{} / {} (+{} auto, +{} for refresh); {} rows opened and closed unused",
+                self.activates,
+                st.precharges,
+                st.auto_precharges,
+                st.refresh_precharges,
+                st.unused_activates()
             ),
         );
         row(

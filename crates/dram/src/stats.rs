@@ -117,6 +117,17 @@ impl DramStats {
     pub fn write_row_hit_rate(&self) -> f64 {
         ratio(self.write_row_hits as f64, self.column_writes as f64)
     }
+    /// ACTs whose row was closed again before the request they opened it for was served (a
+    /// refresh, a write-drain switch or a conflicting older request in between): they cost
+    /// activation energy for nothing, and are why USIMM's hit-rate definition can go below
+    /// zero.
+    pub fn unused_activates(&self) -> u64 {
+        let used = self.read_row_misses
+            + self.read_row_conflicts
+            + self.write_row_misses
+            + self.write_row_conflicts;
+        self.activates.saturating_sub(used)
+    }
     /// USIMM's definition: 1 − ACTs for reads / column reads (can be negative when rows are
     /// opened and closed again before use).
     pub fn read_row_hit_rate_by_activates(&self) -> f64 {
