@@ -238,9 +238,9 @@ pub struct ControllerConfig {
     pub write_queue: u32,
     /// `fr-fcfs` or `fcfs`. Default `fr-fcfs`.
     pub scheduler: SchedulerKind,
-    /// FR-FCFS starvation cap: after this many consecutive row hits in one bank while an older
-    /// request for another row of that bank waits, hits lose their priority. 0 = no cap (as in
-    /// USIMM and DRAMsim3). Default 0.
+    /// FR-FCFS starvation cap: after this many row hits since the row was opened, if the bank's
+    /// oldest request wants another row, hits lose their priority. 0 = no cap (as in USIMM).
+    /// DRAMsim3 has a fixed cap of 4 column commands, i.e. 3 here. Default 0.
     pub row_hit_cap: u32,
     /// FR-FCFS: never close a row while queued requests hit it (true, as DRAMsim3), or let a
     /// ready PRE for an older conflicting request close it when none of its hits can issue this

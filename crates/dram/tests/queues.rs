@@ -227,6 +227,30 @@ fn row_hit_cap_bounds_consecutive_hits() {
     );
 }
 
+/// The cap only helps the bank's oldest request: a conflicting request younger than the
+/// waiting hits does not cut in (DRAMsim3's rule).
+#[test]
+fn row_hit_cap_ignores_younger_conflicts() {
+    let mut c = config("ddr3-1600");
+    c.refresh.enabled = false;
+    c.controller.row_hit_cap = 8;
+    let mut d = dram(&c);
+    let open = addr(&d, 0, 0, 0, 1, 0);
+    single(&mut d, req(0, open, MemOp::Read, 0));
+    d.advance_to(999);
+    for i in 0..40u32 {
+        let a = addr(&d, 0, 0, 0, 1, 1 + i % 100);
+        d.try_enqueue(req(2 + u64::from(i), a, MemOp::Read, 1000))
+            .unwrap();
+    }
+    let conflict = addr(&d, 0, 0, 0, 2, 0);
+    d.try_enqueue(req(1, conflict, MemOp::Read, 1001)).unwrap();
+    let out = run_to_idle(&mut d);
+    let c_fin = out.iter().find(|x| x.id == 1).unwrap().finish;
+    let before = out.iter().filter(|x| x.id >= 2 && x.finish < c_fin).count();
+    assert_eq!(before, 40, "every older hit goes first");
+}
+
 /// Without row-hit protection (USIMM's FR-FCFS) a ready PRE for an older request may close a
 /// row whose hits are momentarily blocked, so rows are opened more often for the same traffic.
 #[test]

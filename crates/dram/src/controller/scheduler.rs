@@ -4,8 +4,8 @@
 //! being served (reads, or writes in write-drain mode):
 //! - closed bank: ACT for the request a precharge was issued for, else for the oldest;
 //! - open bank, FR-FCFS: the column command of the oldest request hitting the open row; if there
-//!   is none — or `row_hit_cap` hits have been served while another row's request waits — a PRE
-//!   for the oldest request that misses;
+//!   is none — or `row_hit_cap` hits have been served and the bank's oldest request wants
+//!   another row — a PRE for the oldest request that misses;
 //! - open bank, FCFS: the oldest request's command (column access if it hits, else PRE).
 //!
 //! With `protect_row_hits = false` (USIMM's FR-FCFS) an open bank whose offer is a row hit also
@@ -140,8 +140,10 @@ pub fn bank_candidate(
             let hit = list.iter().copied().find(|&s| q.row(s) == open_row);
             let miss = list.iter().copied().find(|&s| q.row(s) != open_row);
             match (hit, miss) {
-                (Some(_), Some(m)) if row_hit_cap > 0 && st.streak >= row_hit_cap => {
-                    // Starvation cap: the waiting row gets its turn.
+                (Some(_), Some(m)) if m == first && row_hit_cap > 0 && st.streak >= row_hit_cap => {
+                    // Starvation cap: the bank's oldest request wants another row; it gets its
+                    // turn (DRAMsim3's rule, with its 4 column commands = the opening access
+                    // plus a cap of 3 hits).
                     Some(offer(Cmd::Pre, m, false))
                 }
                 (Some(h), _) => Some(offer(col, h, true)),
