@@ -191,6 +191,15 @@ impl RequestQueues {
         }
     }
 
+    /// The queued requests of `op` at flat bank `b`, oldest first.
+    #[inline]
+    pub fn bank_list(&self, op: MemOp, b: usize) -> &[u32] {
+        match op {
+            MemOp::Read => &self.reads[b],
+            MemOp::Write => &self.writes[b],
+        }
+    }
+
     /// Admit an arrived request: forward it, merge it, or queue it at its bank.
     pub fn admit(&mut self, slot: u32) -> Admit {
         let e = self.slab[slot as usize];

@@ -74,10 +74,7 @@ pub fn bank_alternative(
     op: MemOp,
     open_row: u32,
 ) -> Option<Candidate> {
-    let list = match op {
-        MemOp::Read => &q.reads[b],
-        MemOp::Write => &q.writes[b],
-    };
+    let list = q.bank_list(op, b);
     let m = list.iter().copied().find(|&s| q.row(s) != open_row)?;
     let e = q.get(m);
     Some(Candidate {
@@ -100,10 +97,7 @@ pub fn bank_candidate(
     op: MemOp,
     open_row: u32,
 ) -> Option<Candidate> {
-    let list = match op {
-        MemOp::Read => &q.reads[b],
-        MemOp::Write => &q.writes[b],
-    };
+    let list = q.bank_list(op, b);
     let &first = list.first()?;
     let col = match op {
         MemOp::Read => Cmd::Rd,
