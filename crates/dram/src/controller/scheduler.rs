@@ -37,6 +37,20 @@ pub struct Candidate {
 }
 
 impl Candidate {
+    /// `cmd` for the queued request in `slot`.
+    #[inline]
+    fn new(q: &RequestQueues, cmd: Cmd, slot: u32, hit: bool) -> Self {
+        let e = q.get(slot);
+        Candidate {
+            cmd,
+            kind: cmd.kind() as u8,
+            slot,
+            hit,
+            seq: e.seq,
+            row: e.row,
+        }
+    }
+
     /// Placeholder for banks without an offer.
     pub const NONE: Candidate = Candidate {
         cmd: Cmd::Act,
@@ -76,15 +90,7 @@ pub fn bank_alternative(
 ) -> Option<Candidate> {
     let list = q.bank_list(op, b);
     let m = list.iter().copied().find(|&s| q.row(s) != open_row)?;
-    let e = q.get(m);
-    Some(Candidate {
-        cmd: Cmd::Pre,
-        kind: Cmd::Pre.kind() as u8,
-        slot: m,
-        hit: false,
-        seq: e.seq,
-        row: e.row,
-    })
+    Some(Candidate::new(q, Cmd::Pre, m, false))
 }
 
 /// The candidate of bank `b` when serving `op` requests, with `open_row` open (or CLOSED).
@@ -103,17 +109,7 @@ pub fn bank_candidate(
         MemOp::Read => Cmd::Rd,
         MemOp::Write => Cmd::Wr,
     };
-    let offer = |cmd, slot: u32, hit| {
-        let e = q.get(slot);
-        Candidate {
-            cmd,
-            kind: cmd.kind() as u8,
-            slot,
-            hit,
-            seq: e.seq,
-            row: e.row,
-        }
-    };
+    let offer = |cmd, slot, hit| Candidate::new(q, cmd, slot, hit);
     if open_row == CLOSED {
         let target = if st.pre_target != NIL && list.contains(&st.pre_target) {
             st.pre_target
