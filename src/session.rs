@@ -56,7 +56,12 @@ pub fn fast_path(
     triangles: &[[rtsim_core::Vec3; 3]],
     bvh: &rtsim_bvh::Bvh,
 ) -> Result<Option<FastBvh>> {
-    if !(want && cfg.fast_path && cfg.triangle_test == TriangleTest::MollerTrumbore) {
+    // The fast path answers like the `stack` variant; other variants answer themselves.
+    if !(want
+        && cfg.fast_path
+        && cfg.triangle_test == TriangleTest::MollerTrumbore
+        && cfg.traversal == rtsim_trace::Traversal::Stack)
+    {
         return Ok(None);
     }
     Ok(Some(

@@ -1,5 +1,6 @@
 //! `rtsim bench`: BVH build time and tracing throughput (Mrays/s) for primary, AO and diffuse
-//! rays, on one thread and on all cores, for the reference traversal (with counters) and the
+//! rays, on one thread and on all cores, for the reference traversal (with counters), the
+//! same traversal stepped one unit of work at a time (what the hardware models run) and the
 //! 8-wide fast path. Rays are generated first, exactly as the workloads trace them, then timed
 //! in isolation; each measurement is repeated and the fastest kept.
 
@@ -11,7 +12,7 @@ use rayon::prelude::*;
 use rtsim_core::Ray;
 use rtsim_trace::fast::FastBvh;
 use rtsim_trace::query::write_rays;
-use rtsim_trace::{Integrator, RayCounters, Tracer, WorkloadKind};
+use rtsim_trace::{Integrator, Query, RayCounters, Tracer, WorkloadKind};
 use std::time::Instant;
 
 pub fn run(args: BenchArgs) -> Result<()> {
@@ -51,15 +52,18 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let tracer = Tracer::new(&scene.triangles, bvh, &cfg.trace)?;
 
     println!(
-        "Mrays/s: reference binary-BVH traversal (with counters), 8-wide fast path (no counters)"
+        "Mrays/s: reference binary-BVH traversal `{}` (with counters), the same stepped, \
+         8-wide fast path (no counters)",
+        tracer.traversal().name()
     );
     println!(
-        "{:<8} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9}",
+        "{:<8} {:>9} {:>7} {:>9} {:>9} {:>10} {:>9} {:>9}",
         "rays",
         "count",
         "hit %",
         "ref 1t",
         format!("ref {cores}t"),
+        "stepped 1t",
         "fast 1t",
         format!("fast {cores}t")
     );
@@ -74,11 +78,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
             write_rays(&p, &rays).with_context(|| format!("writing {}", p.display()))?;
         }
         let any = kind == WorkloadKind::Ao;
-        let measure = |pool: &rayon::ThreadPool, fast: Option<&FastBvh>| {
+        let measure = |pool: &rayon::ThreadPool, mode: Mode| {
             let mut best = (f64::INFINITY, 0);
             for _ in 0..args.repeat {
                 let start = Instant::now();
-                let hits = pool.install(|| trace_all(&tracer, fast, &rays, any));
+                let hits = pool.install(|| trace_all(&tracer, mode, &rays, any));
                 let secs = start.elapsed().as_secs_f64();
                 if secs < best.0 {
                     best = (secs, hits);
@@ -88,22 +92,30 @@ pub fn run(args: BenchArgs) -> Result<()> {
         };
         let n = rays.len() as f64;
         let rate = |t: f64| format!("{:.2}", n / t / 1e6);
-        let (t1, hits) = measure(&one, None);
-        let (tn, _) = measure(&all, None);
+        let (t1, hits) = measure(&one, Mode::Closed);
+        let (tn, _) = measure(&all, Mode::Closed);
+        let (s1, stepped_hits) = measure(&one, Mode::Stepped);
+        if stepped_hits != hits {
+            anyhow::bail!(
+                "internal error: the stepped traversal found {stepped_hits} hits, the closed \
+                 loop {hits}"
+            );
+        }
         let (f1, fnn) = match fast.as_ref() {
             Some(f) => (
-                rate(measure(&one, Some(f)).0),
-                rate(measure(&all, Some(f)).0),
+                rate(measure(&one, Mode::Fast(f)).0),
+                rate(measure(&all, Mode::Fast(f)).0),
             ),
             None => ("-".into(), "-".into()),
         };
         println!(
-            "{:<8} {:>9} {:>7.2} {:>9} {:>9} {:>9} {:>9}",
+            "{:<8} {:>9} {:>7.2} {:>9} {:>9} {:>10} {:>9} {:>9}",
             name(kind),
             rays.len(),
             100.0 * hits as f64 / n.max(1.0),
             rate(t1),
             rate(tn),
+            format!("{} ({:+.0}%)", rate(s1), 100.0 * (t1 / s1 - 1.0)),
             f1,
             fnn
         );
@@ -164,16 +176,32 @@ fn generate(
     }
 }
 
-/// Trace every ray on the current pool (fast path if given); returns the number of hits.
-fn trace_all(tracer: &Tracer, fast: Option<&FastBvh>, rays: &[Ray], any: bool) -> u64 {
+/// How rays are traced.
+#[derive(Clone, Copy)]
+enum Mode<'a> {
+    /// The tracer's closest/any-hit queries (the closed loop for `stack`).
+    Closed,
+    /// The configured variant stepped one unit of work at a time.
+    Stepped,
+    Fast(&'a FastBvh),
+}
+
+/// Trace every ray on the current pool; returns the number of hits.
+fn trace_all(tracer: &Tracer, mode: Mode<'_>, rays: &[Ray], any: bool) -> u64 {
+    let query = if any { Query::Any } else { Query::Closest };
     rays.par_iter()
         .with_min_len(4096)
         .map(|r| {
-            let hit = match (fast, any) {
-                (Some(f), true) => f.any_hit(r),
-                (Some(f), false) => f.closest_hit(r).is_hit(),
-                (None, true) => tracer.any_hit(r, &mut RayCounters::default()),
-                (None, false) => tracer.closest_hit(r, &mut RayCounters::default()).is_hit(),
+            let hit = match (mode, any) {
+                (Mode::Fast(f), true) => f.any_hit(r),
+                (Mode::Fast(f), false) => f.closest_hit(r).is_hit(),
+                (Mode::Closed, true) => tracer.any_hit(r, &mut RayCounters::default()),
+                (Mode::Closed, false) => {
+                    tracer.closest_hit(r, &mut RayCounters::default()).is_hit()
+                }
+                (Mode::Stepped, _) => tracer
+                    .run_stepped(r, query, &mut RayCounters::default())
+                    .is_hit(),
             };
             hit as u64
         })

@@ -26,10 +26,42 @@ pub enum TraversalOrder {
     LeftFirst,
 }
 
+/// Traversal variant (see `docs/TRAVERSAL.md` and [`crate::step`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Traversal {
+    /// Full stack of (node, entry distance) in the TP's local memory: the TRaX baseline and
+    /// the reference.
+    Stack,
+    /// One bit per level plus parent pointers (STRaTA paper §3.2); needs a BVH of at most 32
+    /// levels below the root.
+    BitStack,
+    /// A short stack with a restart trail (SGRT's TRV).
+    ShortStack,
+}
+
+impl Traversal {
+    pub fn name(self) -> &'static str {
+        match self {
+            Traversal::Stack => "stack",
+            Traversal::BitStack => "bit-stack",
+            Traversal::ShortStack => "short-stack",
+        }
+    }
+}
+
 /// Traversal settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TraceConfig {
+    /// Traversal variant: `stack` (default), `bit-stack`, `short-stack`.
+    pub traversal: Traversal,
+    /// `stack`: entries the stack may hold; 8 bytes each in the TRaX TP's 512-byte local
+    /// memory, so at most 64 (default 64). A BVH deeper than this is refused.
+    pub stack_entries: u32,
+    /// `short-stack`: entries of the short stack, 1..=64. Default 8 (assumed; the SGRT paper
+    /// gives 16 stacks per TRV but not their depth — see `docs/TRAVERSAL.md`).
+    pub short_stack_entries: u32,
     /// Triangle test used by the reference traversal. Default `moller-trumbore`.
     pub triangle_test: TriangleTest,
     /// Child order. Default `nearest-first`.
@@ -45,6 +77,9 @@ pub struct TraceConfig {
 impl Default for TraceConfig {
     fn default() -> Self {
         TraceConfig {
+            traversal: Traversal::Stack,
+            stack_entries: crate::step::stack::STACK_CAPACITY as u32,
+            short_stack_entries: 8,
             triangle_test: TriangleTest::MollerTrumbore,
             order: TraversalOrder::NearestFirst,
             early_exit: true,
@@ -55,6 +90,18 @@ impl Default for TraceConfig {
 
 impl Validate for TraceConfig {
     fn validate(&self) -> Result<(), ConfigError> {
+        check_range(
+            "trace.stack_entries",
+            self.stack_entries,
+            1,
+            crate::step::stack::STACK_CAPACITY as u32,
+        )?;
+        check_range(
+            "trace.short_stack_entries",
+            self.short_stack_entries,
+            1,
+            crate::step::shortstack::MAX_ENTRIES as u32,
+        )?;
         Ok(())
     }
 }

@@ -1,17 +1,30 @@
 //! Per-ray work counters and their per-frame sums.
 //!
 //! The counters are part of the tracer's contract: a hardware model running the same
-//! traversal variant must reproduce them exactly. Definitions (baseline stack traversal):
+//! traversal variant must reproduce them exactly. Definitions (all variants; see
+//! `docs/TRAVERSAL.md` for each variant's contract):
 //!
-//! - `nodes_visited`: nodes whose record was fetched and processed, the root included (a
-//!   hardware model fetches exactly these);
+//! - `nodes_visited`: nodes whose record was fetched to descend into them, the root included
+//!   (a hardware model fetches exactly these; [`crate::step::Step::Node`]);
 //! - `leaves_visited`: the leaves among them;
-//! - `box_tests`: ray–box tests, the root's one plus two per inner node visited;
+//! - `box_tests`: ray–box tests: the root's one, two per inner node visited (the child pair),
+//!   plus the bit-stack variant's sibling re-tests;
 //! - `tri_tests`: ray–triangle tests;
-//! - `stack_pushes`: far children deferred to the stack;
-//! - `stack_culls`: stack entries popped and discarded because a closer hit was found since
-//!   they were pushed (no node fetch);
-//! - `max_stack`: deepest stack occupancy.
+//! - `stack_pushes`: entries pushed (`stack`, `short-stack`: far children deferred with their
+//!   entry distance, one local-memory write each; `bit-stack`: one bit per level descended);
+//! - `stack_pops`: entries popped (local-memory reads for `stack`; bits for `bit-stack`),
+//!   culled ones included;
+//! - `stack_culls`: popped entries discarded because a closer hit was found since they were
+//!   pushed (no node fetch);
+//! - `max_stack`: deepest stack occupancy (entries; bits for `bit-stack`);
+//! - `parent_fetches`: `bit-stack`: parent pointers read to move up the tree;
+//! - `sibling_retests`: `bit-stack`: sibling boxes tested again on the way up (the price of
+//!   not storing the far child's entry distance; also counted in `box_tests`);
+//! - `treelet_crossings`: moves of the current node into another treelet (only when the
+//!   tracer has treelet ids; 0 otherwise);
+//! - `stack_overflows`: `short-stack`: pushes onto a full stack, which drop the oldest entry;
+//! - `restarts`: `short-stack`: traversals restarted from the root because a dropped entry
+//!   was still pending.
 
 use serde::{Deserialize, Serialize};
 use std::ops::AddAssign;
@@ -24,8 +37,14 @@ pub struct RayCounters {
     pub box_tests: u32,
     pub tri_tests: u32,
     pub stack_pushes: u32,
+    pub stack_pops: u32,
     pub stack_culls: u32,
     pub max_stack: u32,
+    pub parent_fetches: u32,
+    pub sibling_retests: u32,
+    pub treelet_crossings: u32,
+    pub stack_overflows: u32,
+    pub restarts: u32,
 }
 
 /// Sums over many rays of one kind.
@@ -38,9 +57,15 @@ pub struct CounterTotals {
     pub box_tests: u64,
     pub tri_tests: u64,
     pub stack_pushes: u64,
+    pub stack_pops: u64,
     pub stack_culls: u64,
     /// Deepest stack seen by any ray.
     pub max_stack: u64,
+    pub parent_fetches: u64,
+    pub sibling_retests: u64,
+    pub treelet_crossings: u64,
+    pub stack_overflows: u64,
+    pub restarts: u64,
 }
 
 impl CounterTotals {
@@ -54,8 +79,14 @@ impl CounterTotals {
         self.box_tests += c.box_tests as u64;
         self.tri_tests += c.tri_tests as u64;
         self.stack_pushes += c.stack_pushes as u64;
+        self.stack_pops += c.stack_pops as u64;
         self.stack_culls += c.stack_culls as u64;
         self.max_stack = self.max_stack.max(c.max_stack as u64);
+        self.parent_fetches += c.parent_fetches as u64;
+        self.sibling_retests += c.sibling_retests as u64;
+        self.treelet_crossings += c.treelet_crossings as u64;
+        self.stack_overflows += c.stack_overflows as u64;
+        self.restarts += c.restarts as u64;
     }
 }
 
@@ -68,7 +99,13 @@ impl AddAssign for CounterTotals {
         self.box_tests += o.box_tests;
         self.tri_tests += o.tri_tests;
         self.stack_pushes += o.stack_pushes;
+        self.stack_pops += o.stack_pops;
         self.stack_culls += o.stack_culls;
         self.max_stack = self.max_stack.max(o.max_stack);
+        self.parent_fetches += o.parent_fetches;
+        self.sibling_retests += o.sibling_retests;
+        self.treelet_crossings += o.treelet_crossings;
+        self.stack_overflows += o.stack_overflows;
+        self.restarts += o.restarts;
     }
 }

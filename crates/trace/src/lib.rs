@@ -6,6 +6,9 @@
 //!   Plücker, Wald) behind the [`TriKernel`] trait.
 //! - [`traverse`]: the reference binary-BVH stack traversal (nearest child first or
 //!   left-first, closest- or any-hit), generic over the kernel, filling [`RayCounters`].
+//! - [`step`]: the traversal variants (`stack`, `bit-stack`, `short-stack`) as steppable state
+//!   machines whose [`Step`]s say what the hardware fetches and does next; `stack` stepped
+//!   equals the closed loop above, counters included.
 //! - [`Tracer`]: a BVH plus triangle records in the selected kernel's format; answers
 //!   `closest_hit` / `any_hit` queries with counters. Hardware models must reproduce its hits
 //!   and counters for the variant they run.
@@ -23,15 +26,19 @@ pub mod film;
 pub mod kernels;
 pub mod query;
 pub mod sampling;
+pub mod step;
 pub mod tracer;
 pub mod traverse;
 pub mod workload;
 
-pub use config::{TraceConfig, TraversalOrder, TriangleTest, WorkloadConfig, WorkloadKind};
+pub use config::{
+    TraceConfig, Traversal, TraversalOrder, TriangleTest, WorkloadConfig, WorkloadKind,
+};
 pub use counters::{CounterTotals, RayCounters};
 pub use film::{Frame, ToneMap, render_frame};
 pub use kernels::TriKernel;
-pub use tracer::{Hit, NO_HIT, Tracer, TracerError, brute_force_closest};
+pub use step::{Query, Step};
+pub use tracer::{Hit, NO_HIT, Tracer, TracerError, TraversalState, brute_force_closest};
 pub use workload::{FrameStats, Integrator, PixelResult, WorkloadParams};
 
 #[cfg(test)]

@@ -1,10 +1,11 @@
 //! [`Tracer`]: a BVH plus the triangle records of the selected kernel, answering closest-hit
 //! and any-hit queries through the reference traversal, with counters.
 
-use crate::config::{TraceConfig, TraversalOrder, TriangleTest};
+use crate::config::{TraceConfig, Traversal, TraversalOrder, TriangleTest};
 use crate::counters::RayCounters;
 use crate::kernels::triangle::{MollerTrumbore, Plucker, TriKernel, Wald, WaldTri};
-use crate::traverse::{STACK_SIZE, SlotHit, TraverseOptions, traverse};
+use crate::step::{self, Data, Query, Step, bitstack, shortstack, stack};
+use crate::traverse::{SlotHit, TraverseOptions, traverse};
 use rtsim_bvh::Bvh;
 use rtsim_core::{Ray, Vec3};
 
@@ -45,15 +46,59 @@ pub struct Tracer {
     records: Records,
     opts: TraverseOptions,
     test: TriangleTest,
+    traversal: Traversal,
+    short_stack_entries: u32,
+    /// Parent of every node (`bit-stack` only; empty otherwise).
+    parents: Vec<u32>,
+    /// Treelet id of every node, or empty (no treelets: no crossings counted).
+    treelets: Vec<u32>,
+}
+
+/// A ray in flight through the tracer's traversal variant (plain data).
+#[derive(Clone, Copy, Debug)]
+pub enum TraversalState {
+    Stack(stack::State),
+    BitStack(bitstack::State),
+    ShortStack(shortstack::State),
 }
 
 /// A BVH the traversal cannot run.
 #[derive(Debug, thiserror::Error)]
 pub enum TracerError {
-    #[error("BVH depth {depth} exceeds the traversal stack ({STACK_SIZE}); lower bvh.max_depth")]
-    TooDeep { depth: usize },
+    #[error(
+        "the BVH has {levels} levels below the root, more than trace.traversal = {variant} \
+         can hold ({limit}, set by {key}); build with bvh.max_depth = {limit} or less"
+    )]
+    TooDeep {
+        levels: usize,
+        variant: &'static str,
+        limit: usize,
+        key: &'static str,
+    },
     #[error("BVH references triangle slot {slot} but the scene has {count} triangles")]
     BadSlot { slot: usize, count: usize },
+    #[error("{got} treelet ids for a BVH of {nodes} nodes")]
+    Treelets { got: usize, nodes: usize },
+}
+
+/// Run `$body` with `$d` bound to the tracer's [`Data`] for its kernel.
+macro_rules! with_data {
+    ($self:expr, $d:ident => $body:expr) => {
+        match &$self.records {
+            Records::MollerTrumbore(r) => {
+                let $d = $self.data::<MollerTrumbore>(r);
+                $body
+            }
+            Records::Plucker(r) => {
+                let $d = $self.data::<Plucker>(r);
+                $body
+            }
+            Records::Wald(r) => {
+                let $d = $self.data::<Wald>(r);
+                $body
+            }
+        }
+    };
 }
 
 impl Tracer {
@@ -63,9 +108,20 @@ impl Tracer {
         bvh: Bvh,
         cfg: &TraceConfig,
     ) -> Result<Tracer, TracerError> {
-        let depth = bvh_depth(&bvh);
-        if depth >= STACK_SIZE {
-            return Err(TracerError::TooDeep { depth });
+        // Levels below the root = the most entries a path can defer.
+        let levels = bvh_depth(&bvh).saturating_sub(1);
+        let (limit, key) = match cfg.traversal {
+            Traversal::Stack => (cfg.stack_entries as usize, "trace.stack_entries"),
+            Traversal::BitStack => (bitstack::MAX_LEVELS as usize, "the 32-bit bit stack"),
+            Traversal::ShortStack => (shortstack::MAX_LEVELS as usize, "the 64-bit restart trail"),
+        };
+        if levels > limit {
+            return Err(TracerError::TooDeep {
+                levels,
+                variant: cfg.traversal.name(),
+                limit,
+                key,
+            });
         }
         if let Some(&bad) = bvh
             .prim_ids
@@ -89,12 +145,99 @@ impl Tracer {
             nearest_first: cfg.order == TraversalOrder::NearestFirst,
             early_exit: cfg.early_exit,
         };
+        let parents = if cfg.traversal == Traversal::BitStack {
+            bvh.parents()
+        } else {
+            Vec::new()
+        };
         Ok(Tracer {
             bvh,
             records,
             opts,
             test: cfg.triangle_test,
+            traversal: cfg.traversal,
+            short_stack_entries: cfg.short_stack_entries,
+            parents,
+            treelets: Vec::new(),
         })
+    }
+
+    /// Give every node its treelet id, so traversals count (and step through) treelet
+    /// crossings. An empty vector removes them.
+    pub fn set_treelets(&mut self, ids: Vec<u32>) -> Result<(), TracerError> {
+        if !ids.is_empty() && ids.len() != self.bvh.nodes.len() {
+            return Err(TracerError::Treelets {
+                got: ids.len(),
+                nodes: self.bvh.nodes.len(),
+            });
+        }
+        self.treelets = ids;
+        Ok(())
+    }
+
+    /// The traversal variant.
+    pub fn traversal(&self) -> Traversal {
+        self.traversal
+    }
+
+    #[inline(always)]
+    fn data<'a, K: TriKernel>(&'a self, tris: &'a [K::Data]) -> Data<'a, K> {
+        Data {
+            nodes: &self.bvh.nodes,
+            tris,
+            parents: &self.parents,
+            treelets: &self.treelets,
+            opts: self.opts,
+        }
+    }
+
+    /// Start a stepped traversal of `ray` with the tracer's variant.
+    #[inline]
+    pub fn start(&self, ray: &Ray, query: Query) -> TraversalState {
+        with_data!(self, d => match self.traversal {
+            Traversal::Stack => TraversalState::Stack(stack::start(&d, ray, query)),
+            Traversal::BitStack => TraversalState::BitStack(bitstack::start(&d, ray, query)),
+            Traversal::ShortStack => TraversalState::ShortStack(shortstack::start(
+                &d,
+                ray,
+                query,
+                self.short_stack_entries,
+            )),
+        })
+    }
+
+    /// Perform the next unit of work of a stepped traversal (see [`Step`]).
+    #[inline]
+    pub fn step(&self, st: &mut TraversalState, c: &mut RayCounters) -> Step {
+        with_data!(self, d => match st {
+            TraversalState::Stack(s) => stack::step(&d, s, c),
+            TraversalState::BitStack(s) => bitstack::step(&d, s, c),
+            TraversalState::ShortStack(s) => shortstack::step(&d, s, c),
+        })
+    }
+
+    /// Run a stepped traversal to its end: the slot-level result.
+    #[inline]
+    pub fn run_stepped(&self, ray: &Ray, query: Query, c: &mut RayCounters) -> SlotHit {
+        let mut st = self.start(ray, query);
+        with_data!(self, d => match &mut st {
+            TraversalState::Stack(s) => step::run(|s| stack::step(&d, s, c), s),
+            TraversalState::BitStack(s) => step::run(|s| bitstack::step(&d, s, c), s),
+            TraversalState::ShortStack(s) => step::run(|s| shortstack::step(&d, s, c), s),
+        })
+    }
+
+    /// The slot-level result of a closed traversal (the `stack` closed loop or any variant
+    /// stepped to its end) as a scene hit.
+    #[inline]
+    pub fn slot_to_scene(&self, h: SlotHit) -> Hit {
+        self.scene_hit(h)
+    }
+
+    /// The scene triangle id stored at BVH slot `slot`.
+    #[inline]
+    pub fn prim_of_slot(&self, slot: u32) -> u32 {
+        self.bvh.prim_ids[slot as usize]
     }
 
     pub fn bvh(&self) -> &Bvh {
@@ -109,15 +252,21 @@ impl Tracer {
         self.opts
     }
 
+    /// Trace with the configured variant: the closed loop for `stack`, the stepped
+    /// traversal run to its end otherwise.
     #[inline]
     fn run<const ANY: bool>(&self, ray: &Ray, c: &mut RayCounters) -> SlotHit {
-        let nodes = &self.bvh.nodes;
+        if self.traversal != Traversal::Stack {
+            let q = if ANY { Query::Any } else { Query::Closest };
+            return self.run_stepped(ray, q, c);
+        }
+        let (nodes, tl) = (&self.bvh.nodes, &self.treelets);
         match &self.records {
             Records::MollerTrumbore(r) => {
-                traverse::<MollerTrumbore, ANY>(nodes, r, ray, self.opts, c)
+                traverse::<MollerTrumbore, ANY>(nodes, r, tl, ray, self.opts, c)
             }
-            Records::Plucker(r) => traverse::<Plucker, ANY>(nodes, r, ray, self.opts, c),
-            Records::Wald(r) => traverse::<Wald, ANY>(nodes, r, ray, self.opts, c),
+            Records::Plucker(r) => traverse::<Plucker, ANY>(nodes, r, tl, ray, self.opts, c),
+            Records::Wald(r) => traverse::<Wald, ANY>(nodes, r, tl, ray, self.opts, c),
         }
     }
 
@@ -202,7 +351,7 @@ pub fn brute_force_closest(triangles: &[[Vec3; 3]], ray: &Ray) -> Hit {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{TraceConfig, TraversalOrder, TriangleTest};
+    use crate::config::{TraceConfig, Traversal, TraversalOrder, TriangleTest};
     use crate::testutil::{median_bvh, random_rays, random_soup};
 
     fn configs() -> Vec<TraceConfig> {
@@ -214,12 +363,18 @@ mod tests {
         ] {
             for order in [TraversalOrder::NearestFirst, TraversalOrder::LeftFirst] {
                 for early_exit in [true, false] {
-                    v.push(TraceConfig {
-                        triangle_test: test,
-                        order,
-                        early_exit,
-                        fast_path: false,
-                    });
+                    for traversal in [Traversal::Stack, Traversal::BitStack, Traversal::ShortStack]
+                    {
+                        v.push(TraceConfig {
+                            traversal,
+                            triangle_test: test,
+                            order,
+                            early_exit,
+                            fast_path: false,
+                            short_stack_entries: 3,
+                            ..TraceConfig::default()
+                        });
+                    }
                 }
             }
         }
@@ -246,10 +401,11 @@ mod tests {
                         );
                         mismatches += (h.prim != reference.prim) as u32;
                     }
-                    // Counter identities of the reference traversal.
+                    // Counter identities (the bit stack adds its sibling re-tests).
                     assert_eq!(
                         c.box_tests,
                         1 + 2 * (c.nodes_visited - c.leaves_visited).min(c.nodes_visited)
+                            + c.sibling_retests
                     );
                     let mut ca = RayCounters::default();
                     assert_eq!(tracer.any_hit(ray, &mut ca), reference.is_hit(), "{cfg:?}");

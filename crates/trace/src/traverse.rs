@@ -54,10 +54,12 @@ pub struct TraverseOptions {
 }
 
 /// Traverse `nodes` with triangle records `tris` (BVH slot order). `ANY`: occlusion query.
+/// `treelets`: the treelet id of every node, to count treelet crossings, or empty.
 #[inline]
 pub fn traverse<K: TriKernel, const ANY: bool>(
     nodes: &[Node],
     tris: &[K::Data],
+    treelets: &[u32],
     ray: &Ray,
     opts: TraverseOptions,
     c: &mut RayCounters,
@@ -76,7 +78,15 @@ pub fn traverse<K: TriKernel, const ANY: bool>(
     let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK_SIZE];
     let mut sp = 0usize;
     let mut node = 0u32;
+    let mut treelet = treelets.first().copied().unwrap_or(0);
     loop {
+        if let Some(&t) = treelets.get(node as usize) {
+            // Moving into another treelet (STRaTA would park the ray in that treelet's buffer).
+            if t != treelet {
+                c.treelet_crossings += 1;
+                treelet = t;
+            }
+        }
         let n = &nodes[node as usize];
         c.nodes_visited += 1;
         if n.is_leaf() {
@@ -134,6 +144,7 @@ pub fn traverse<K: TriKernel, const ANY: bool>(
                 return hit;
             }
             sp -= 1;
+            c.stack_pops += 1;
             // SAFETY: entries below `sp` were written by the pushes above.
             let (n, t_entry) = unsafe { stack[sp].assume_init() };
             if t_entry < hit.t {
