@@ -8,8 +8,9 @@
 
 const PCG_MULT: u64 = 0x5851_f42d_4c95_7f2d;
 
-/// PCG-XSH-RR 64/32.
-#[derive(Clone, Debug)]
+/// PCG-XSH-RR 64/32. `Copy`, so that a parked path state is plain data (a hardware model
+/// moves it between queues); a copy continues the same sequence independently.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Pcg32 {
     state: u64,
     inc: u64,

@@ -39,7 +39,10 @@ pub use film::{Frame, ToneMap, render_frame};
 pub use kernels::TriKernel;
 pub use step::{Query, Step};
 pub use tracer::{Hit, NO_HIT, Tracer, TracerError, TraversalState, brute_force_closest};
-pub use workload::{FrameStats, Integrator, PixelResult, WorkloadParams};
+pub use workload::{
+    FrameStats, Integrator, Kernel, Next, PathState, PixelResult, RayId, RayJob, RayKind, Resumed,
+    Shading, TraceResult, WorkloadParams,
+};
 
 #[cfg(test)]
 pub(crate) mod testutil;

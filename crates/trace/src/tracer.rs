@@ -304,6 +304,15 @@ impl Tracer {
     pub fn any_hit_detail(&self, ray: &Ray, c: &mut RayCounters) -> Hit {
         self.scene_hit(self.run::<true>(ray, c))
     }
+
+    /// Answer `query` with the configured variant, in BVH slots.
+    #[inline]
+    pub fn trace_slots(&self, ray: &Ray, query: Query, c: &mut RayCounters) -> SlotHit {
+        match query {
+            Query::Closest => self.run::<false>(ray, c),
+            Query::Any => self.run::<true>(ray, c),
+        }
+    }
 }
 
 /// Number of levels of the BVH (a single leaf has depth 1; empty has 0).

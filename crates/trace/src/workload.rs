@@ -15,10 +15,12 @@
 use crate::config::WorkloadKind;
 use crate::counters::{CounterTotals, RayCounters};
 use crate::sampling::{cosine_hemisphere, halton2};
+use crate::step::Query;
 use crate::tracer::{Hit, Tracer};
+use crate::traverse::SlotHit;
 use rtsim_core::rng::stream_seed;
 use rtsim_core::{Pcg32, Ray, Vec3};
-use rtsim_scene::Scene;
+use rtsim_scene::{Material, Scene};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::FRAC_1_PI;
 use std::ops::AddAssign;
@@ -74,6 +76,21 @@ impl FrameStats {
     }
 }
 
+impl FrameStats {
+    /// The totals that count rays of `kind`.
+    #[inline]
+    pub fn kind_mut(&mut self, kind: RayKind) -> &mut CounterTotals {
+        match kind {
+            RayKind::Primary => &mut self.primary,
+            RayKind::Shadow => &mut self.shadow,
+            RayKind::Bounce => &mut self.bounce,
+            RayKind::Ao => &mut self.ao,
+            RayKind::Diffuse => &mut self.diffuse,
+            RayKind::Specular => &mut self.specular,
+        }
+    }
+}
+
 impl AddAssign for FrameStats {
     fn add_assign(&mut self, o: FrameStats) {
         self.primary += o.primary;
@@ -107,7 +124,192 @@ pub struct PixelResult {
     pub nodes_visited: u32,
 }
 
-/// Shades pixels of one frame.
+/// Why a ray is traced; decides which [`FrameStats`] field counts it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[repr(u8)]
+pub enum RayKind {
+    /// Camera ray (the first segment of every sample).
+    Primary = 0,
+    /// Path tracing: towards the point light (any hit).
+    Shadow = 1,
+    /// Path tracing: cosine-weighted bounce.
+    Bounce = 2,
+    /// Ambient occlusion (any hit, bounded by the AO radius).
+    Ao = 3,
+    /// One-bounce diffuse inter-reflection.
+    Diffuse = 4,
+    /// Forced specular: mirror reflection.
+    Specular = 5,
+}
+
+/// Which ray of the frame a job is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct RayId {
+    /// Pixel index, row-major (`y · width + x`).
+    pub pixel: u32,
+    /// Sample of the pixel (always 0 for AO and diffuse, whose `spp` rays hang off one
+    /// camera ray).
+    pub sample: u32,
+    /// Ray of the sample, in tracing order (0 = the camera ray).
+    pub segment: u32,
+    pub kind: RayKind,
+}
+
+/// A ray to trace, with who asked for it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayJob {
+    pub id: RayId,
+    pub ray: Ray,
+    pub query: Query,
+}
+
+/// What tracing a [`RayJob`] found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceResult {
+    /// In scene terms (scene triangle id); for any-hit queries, the hit that ended the ray.
+    pub hit: Hit,
+    /// The BVH triangle slot of the hit (`u32::MAX` for a miss): where its record lives.
+    pub slot: u32,
+}
+
+impl TraceResult {
+    pub fn from_slot_hit(tracer: &Tracer, h: SlotHit) -> TraceResult {
+        TraceResult {
+            hit: tracer.slot_to_scene(h),
+            slot: h.slot,
+        }
+    }
+}
+
+/// The shading kernels a [`Integrator::begin`] or [`Integrator::resume`] call ran, counted.
+/// The operation mix of each is published by [`crate::ops`]; the hardware models charge
+/// them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum Kernel {
+    /// A camera ray through a pixel position (basis, normalisation).
+    CameraRay = 0,
+    /// Two uniform random numbers for a sub-pixel jitter.
+    Jitter = 1,
+    /// The hit point and geometric normal from the hit triangle's vertices.
+    Surface = 2,
+    /// Headlight shading of a primary hit.
+    Headlight = 3,
+    /// Unshadowed Lambertian response to the point light.
+    DirectLight = 4,
+    /// A shadow ray towards the light.
+    ShadowRay = 5,
+    /// A cosine-weighted direction from two random numbers (path-tracing bounce).
+    CosineBounce = 6,
+    /// A Halton-sequence cosine direction (AO and diffuse rays).
+    HaltonRay = 7,
+    /// A mirror reflection.
+    Reflect = 8,
+    /// Accumulate one value into the pixel's or path's sums.
+    Accumulate = 9,
+    /// Average the samples and write the framebuffer.
+    Finish = 10,
+}
+
+/// Number of [`Kernel`] kinds.
+pub const KERNELS: usize = 11;
+
+/// What one state-machine transition did besides tracing: the kernels it ran and the
+/// records it read or wrote, by index (the memory image gives their addresses).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Shading {
+    /// Runs of each [`Kernel`], indexed by `Kernel as usize`.
+    pub kernels: [u8; KERNELS],
+    /// BVH slot of a triangle record read (hit point and normal).
+    pub triangle: Option<u32>,
+    /// Material record read.
+    pub material: Option<u32>,
+    /// Pixel whose framebuffer entry was written.
+    pub framebuffer: Option<u32>,
+}
+
+impl Shading {
+    #[inline(always)]
+    fn run(&mut self, k: Kernel) {
+        self.kernels[k as usize] += 1;
+    }
+    /// Runs of kernel `k`.
+    pub fn count(&self, k: Kernel) -> u32 {
+        self.kernels[k as usize] as u32
+    }
+}
+
+/// What comes after a transition.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Next {
+    /// Trace this ray, then call [`Integrator::resume`] with its result.
+    Trace(RayJob),
+    /// The pixel is finished with this colour (linear radiance or AO value).
+    Done(Vec3),
+}
+
+/// One transition of a pixel's state machine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Resumed {
+    pub next: Next,
+    pub shading: Shading,
+}
+
+/// Where a pixel is in its work.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    /// Waiting for a camera ray (primary, path and specular: a closest-hit segment).
+    Segment,
+    /// AO/diffuse: waiting for the camera ray.
+    Camera,
+    /// AO/diffuse: waiting for secondary ray `i`.
+    Secondary,
+    /// Path tracing: waiting for the shadow ray of the current hit.
+    Shadow,
+}
+
+/// Everything a pixel carries between its rays (plain data: a hardware model parks it
+/// beside the ray, or spills it to memory). The pixel's random stream lives here; the
+/// samples of one pixel run one after the other because they draw from that one stream
+/// (which keeps images identical to the per-pixel loop they replaced).
+#[derive(Clone, Copy, Debug)]
+pub struct PathState {
+    pixel: u32,
+    x: u32,
+    y: u32,
+    sample: u32,
+    segment: u32,
+    stage: Stage,
+    rng: Pcg32,
+    /// Sum over samples (primary, path, specular) or over secondary rays (AO, diffuse).
+    sum: Vec3,
+    /// Path: throughput and radiance of the current sample; specular: tint and last value.
+    throughput: Vec3,
+    radiance: Vec3,
+    /// Path: hits so far in this sample; specular: bounce; AO/diffuse: secondary ray index.
+    depth: u32,
+    /// Hit point (pushed off the surface) and normal of the current hit.
+    p: Vec3,
+    n: Vec3,
+    /// Path: the light's unshadowed contribution waiting on the shadow ray; AO/diffuse: the
+    /// camera hit's albedo.
+    pending: Vec3,
+    albedo: Vec3,
+    /// AO/diffuse: the pixel's Cranley–Patterson rotation of the Halton sequence.
+    offset: (f32, f32),
+}
+
+impl PathState {
+    /// The pixel index (row-major).
+    pub fn pixel(&self) -> u32 {
+        self.pixel
+    }
+}
+
+/// Shades pixels of one frame: each pixel is a state machine ([`Integrator::begin`],
+/// [`Integrator::resume`]) that asks for rays to be traced and shades their results, so that
+/// a hardware model can trace the rays on its own schedule.
 #[derive(Debug)]
 pub struct Integrator<'a> {
     scene: &'a Scene,
@@ -152,6 +354,10 @@ impl<'a> Integrator<'a> {
         &self.p
     }
 
+    pub fn tracer(&self) -> &Tracer {
+        self.tracer
+    }
+
     /// The camera ray through pixel (x, y) for sample `s`: the pixel centre for the first
     /// sample, jittered uniformly within the pixel for further samples of `primary`/`path`/
     /// `specular`.
@@ -182,67 +388,6 @@ impl<'a> Integrator<'a> {
         (n, p + n * self.eps)
     }
 
-    /// Trace and shade pixel (x, y).
-    pub fn pixel(&self, x: u32, y: u32, st: &mut FrameStats) -> PixelResult {
-        let pixel_index = y as u64 * self.p.width as u64 + x as u64;
-        let mut rng = Pcg32::new(stream_seed(self.p.seed, pixel_index, 0), pixel_index);
-        let mut out = PixelResult::default();
-        match self.p.kind {
-            WorkloadKind::Primary => {
-                let mut sum = Vec3::ZERO;
-                for s in 0..self.p.spp {
-                    sum += self.primary_shade(x, y, s, &mut rng, &mut out, st);
-                }
-                out.color = sum / self.p.spp as f32;
-            }
-            WorkloadKind::Ao | WorkloadKind::Diffuse => {
-                self.ao_or_diffuse(x, y, &mut rng, &mut out, st)
-            }
-            WorkloadKind::Path => {
-                let mut sum = Vec3::ZERO;
-                for s in 0..self.p.spp {
-                    sum += self.path(x, y, s, &mut rng, &mut out, st);
-                }
-                out.color = sum / self.p.spp as f32;
-            }
-            WorkloadKind::Specular => {
-                let mut sum = Vec3::ZERO;
-                for s in 0..self.p.spp {
-                    sum += self.specular(x, y, s, &mut rng, &mut out, st);
-                }
-                out.color = sum / self.p.spp as f32;
-            }
-        }
-        out
-    }
-
-    #[inline]
-    fn jitter(s: u32, rng: &mut Pcg32) -> (f32, f32) {
-        if s == 0 {
-            (0.5, 0.5)
-        } else {
-            (rng.next_f32(), rng.next_f32())
-        }
-    }
-
-    #[inline]
-    fn closest(&self, ray: &Ray, out: &mut PixelResult, totals: &mut CounterTotals) -> Hit {
-        let mut c = RayCounters::default();
-        let h = self.tracer.closest_hit(ray, &mut c);
-        totals.record(&c, h.is_hit());
-        out.nodes_visited = out.nodes_visited.saturating_add(c.nodes_visited);
-        h
-    }
-
-    #[inline]
-    fn occluded(&self, ray: &Ray, out: &mut PixelResult, totals: &mut CounterTotals) -> bool {
-        let mut c = RayCounters::default();
-        let h = self.tracer.any_hit(ray, &mut c);
-        totals.record(&c, h);
-        out.nodes_visited = out.nodes_visited.saturating_add(c.nodes_visited);
-        h
-    }
-
     /// Unshadowed Lambertian response to the point light at `p` with normal `n`.
     #[inline]
     fn direct_unshadowed(&self, p: Vec3, n: Vec3, albedo: Vec3) -> Vec3 {
@@ -252,69 +397,14 @@ impl<'a> Integrator<'a> {
         albedo.mul_elem(self.scene.light.intensity) * (FRAC_1_PI * cos / d2)
     }
 
-    fn primary_shade(
-        &self,
-        x: u32,
-        y: u32,
-        s: u32,
-        rng: &mut Pcg32,
-        out: &mut PixelResult,
-        st: &mut FrameStats,
-    ) -> Vec3 {
-        let ray = self.camera_ray(x, y, Self::jitter(s, rng));
-        let h = self.closest(&ray, out, &mut st.primary);
-        if !h.is_hit() {
-            return Vec3::ZERO;
-        }
-        let (n, _) = self.surface(&ray, &h);
-        // Headlight shading: albedo scaled by the cosine to the viewer.
-        let m = self.scene.material_of(h.prim);
-        m.albedo * (0.2 + 0.8 * n.dot(-ray.direction).max(0.0)) + m.emission
-    }
-
-    fn ao_or_diffuse(
-        &self,
-        x: u32,
-        y: u32,
-        rng: &mut Pcg32,
-        out: &mut PixelResult,
-        st: &mut FrameStats,
-    ) {
-        let ray = self.camera_ray(x, y, (0.5, 0.5));
-        let h = self.closest(&ray, out, &mut st.primary);
-        if !h.is_hit() {
-            out.color = SKY;
-            return;
-        }
-        let (n, p) = self.surface(&ray, &h);
-        let offset = (rng.next_f32(), rng.next_f32());
-        let albedo = self.scene.material_of(h.prim).albedo;
-        let mut sum = Vec3::ZERO;
-        for i in 0..self.p.spp {
-            let r = self.secondary_ray(n, p, offset, i);
-            if self.p.kind == WorkloadKind::Ao {
-                if !self.occluded(&r, out, &mut st.ao) {
-                    sum += Vec3::ONE;
-                }
-            } else {
-                let h2 = self.closest(&r, out, &mut st.diffuse);
-                // One-bounce inter-reflection: the secondary surface's albedo lit by the
-                // unshadowed point light, or the sky.
-                sum += if h2.is_hit() {
-                    let (n2, p2) = self.surface(&r, &h2);
-                    let m2 = self.scene.material_of(h2.prim);
-                    self.direct_unshadowed(p2, n2, m2.albedo) + m2.emission
-                } else {
-                    SKY
-                };
-            }
-        }
-        let mean = sum / self.p.spp as f32;
-        out.color = if self.p.kind == WorkloadKind::Ao {
-            mean
+    #[inline]
+    fn jitter(s: u32, rng: &mut Pcg32, sh: &mut Shading) -> (f32, f32) {
+        if s == 0 {
+            (0.5, 0.5)
         } else {
-            albedo.mul_elem(mean)
-        };
+            sh.run(Kernel::Jitter);
+            (rng.next_f32(), rng.next_f32())
+        }
     }
 
     /// The `i`-th AO or diffuse ray from surface point `p` with normal `n`: a cosine-weighted
@@ -328,6 +418,283 @@ impl<'a> Integrator<'a> {
             f32::INFINITY
         };
         Ray::new(p, cosine_hemisphere(n, u, v), 0.0, tmax)
+    }
+
+    /// A job for the pixel's next ray.
+    #[inline]
+    fn job(&self, st: &mut PathState, ray: Ray, kind: RayKind, query: Query) -> Next {
+        let id = RayId {
+            pixel: st.pixel,
+            sample: st.sample,
+            segment: st.segment,
+            kind,
+        };
+        st.segment += 1;
+        Next::Trace(RayJob { id, ray, query })
+    }
+
+    /// The camera ray of the pixel's current sample.
+    #[inline]
+    fn camera_job(&self, st: &mut PathState, sh: &mut Shading) -> Next {
+        let j = Self::jitter(st.sample, &mut st.rng, sh);
+        sh.run(Kernel::CameraRay);
+        let ray = self.camera_ray(st.x, st.y, j);
+        st.segment = 0;
+        self.job(st, ray, RayKind::Primary, Query::Closest)
+    }
+
+    /// Start pixel `pixel` (row-major index): its state and the first ray to trace.
+    pub fn begin(&self, pixel: u32) -> (PathState, Resumed) {
+        let (x, y) = (pixel % self.p.width, pixel / self.p.width);
+        let rng = Pcg32::new(stream_seed(self.p.seed, pixel as u64, 0), pixel as u64);
+        let mut st = PathState {
+            pixel,
+            x,
+            y,
+            sample: 0,
+            segment: 0,
+            stage: Stage::Segment,
+            rng,
+            sum: Vec3::ZERO,
+            throughput: Vec3::ONE,
+            radiance: Vec3::ZERO,
+            depth: 0,
+            p: Vec3::ZERO,
+            n: Vec3::ZERO,
+            pending: Vec3::ZERO,
+            albedo: Vec3::ZERO,
+            offset: (0.0, 0.0),
+        };
+        let mut sh = Shading::default();
+        let next = match self.p.kind {
+            WorkloadKind::Ao | WorkloadKind::Diffuse => {
+                // One camera ray through the centre; `spp` secondary rays hang off its hit.
+                st.stage = Stage::Camera;
+                sh.run(Kernel::CameraRay);
+                let ray = self.camera_ray(x, y, (0.5, 0.5));
+                self.job(&mut st, ray, RayKind::Primary, Query::Closest)
+            }
+            _ => self.camera_job(&mut st, &mut sh),
+        };
+        (st, Resumed { next, shading: sh })
+    }
+
+    /// A sample of a primary/path/specular pixel is finished with `value`: start the next
+    /// sample or finish the pixel.
+    #[inline]
+    fn end_sample(&self, st: &mut PathState, value: Vec3, sh: &mut Shading) -> Next {
+        sh.run(Kernel::Accumulate);
+        st.sum += value;
+        st.sample += 1;
+        if st.sample == self.p.spp {
+            self.finish(st, st.sum / self.p.spp as f32, sh)
+        } else {
+            st.stage = Stage::Segment;
+            st.throughput = Vec3::ONE;
+            st.radiance = Vec3::ZERO;
+            st.depth = 0;
+            self.camera_job(st, sh)
+        }
+    }
+
+    #[inline]
+    fn finish(&self, st: &PathState, color: Vec3, sh: &mut Shading) -> Next {
+        sh.run(Kernel::Finish);
+        sh.framebuffer = Some(st.pixel);
+        Next::Done(color)
+    }
+
+    /// Continue pixel `st` with the result of tracing `job` (the job the previous
+    /// transition asked for).
+    pub fn resume(&self, st: &mut PathState, job: &RayJob, r: &TraceResult) -> Resumed {
+        let mut sh = Shading::default();
+        let h = &r.hit;
+        let ray = &job.ray;
+        let next = match (self.p.kind, st.stage) {
+            (WorkloadKind::Primary, _) => {
+                // Headlight shading: albedo scaled by the cosine to the viewer.
+                let value = if h.is_hit() {
+                    let (n, _) = self.read_surface(ray, r, &mut sh);
+                    sh.run(Kernel::Headlight);
+                    let m = self.material(h.prim, &mut sh);
+                    m.albedo * (0.2 + 0.8 * n.dot(-ray.direction).max(0.0)) + m.emission
+                } else {
+                    Vec3::ZERO
+                };
+                self.end_sample(st, value, &mut sh)
+            }
+            (WorkloadKind::Ao | WorkloadKind::Diffuse, Stage::Camera) => {
+                if !h.is_hit() {
+                    return Resumed {
+                        next: self.finish(st, SKY, &mut sh),
+                        shading: sh,
+                    };
+                }
+                let (n, p) = self.read_surface(ray, r, &mut sh);
+                st.offset = (st.rng.next_f32(), st.rng.next_f32());
+                st.albedo = self.material(h.prim, &mut sh).albedo;
+                st.n = n;
+                st.p = p;
+                st.depth = 0;
+                st.sum = Vec3::ZERO;
+                st.stage = Stage::Secondary;
+                self.secondary_job(st, &mut sh)
+            }
+            (WorkloadKind::Ao | WorkloadKind::Diffuse, _) => {
+                sh.run(Kernel::Accumulate);
+                if self.p.kind == WorkloadKind::Ao {
+                    if !h.is_hit() {
+                        st.sum += Vec3::ONE;
+                    }
+                } else {
+                    // One-bounce inter-reflection: the secondary surface's albedo lit by the
+                    // unshadowed point light, or the sky.
+                    st.sum += if h.is_hit() {
+                        let (n2, p2) = self.read_surface(ray, r, &mut sh);
+                        let m2 = self.material(h.prim, &mut sh);
+                        sh.run(Kernel::DirectLight);
+                        self.direct_unshadowed(p2, n2, m2.albedo) + m2.emission
+                    } else {
+                        SKY
+                    };
+                }
+                st.depth += 1;
+                if st.depth == self.p.spp {
+                    let mean = st.sum / self.p.spp as f32;
+                    let color = if self.p.kind == WorkloadKind::Ao {
+                        mean
+                    } else {
+                        st.albedo.mul_elem(mean)
+                    };
+                    self.finish(st, color, &mut sh)
+                } else {
+                    self.secondary_job(st, &mut sh)
+                }
+            }
+            (WorkloadKind::Path, Stage::Shadow) => {
+                if !h.is_hit() {
+                    sh.run(Kernel::Accumulate);
+                    st.radiance += st.throughput.mul_elem(st.pending);
+                }
+                st.throughput = st.throughput.mul_elem(st.albedo);
+                st.depth += 1;
+                if st.depth == self.p.max_depth {
+                    self.end_sample(st, st.radiance, &mut sh)
+                } else {
+                    sh.run(Kernel::CosineBounce);
+                    let dir = cosine_hemisphere(st.n, st.rng.next_f32(), st.rng.next_f32());
+                    st.stage = Stage::Segment;
+                    let ray = Ray::new(st.p, dir, 0.0, f32::INFINITY);
+                    self.job(st, ray, RayKind::Bounce, Query::Closest)
+                }
+            }
+            (WorkloadKind::Path, _) => {
+                if !h.is_hit() {
+                    return Resumed {
+                        next: self.end_sample(st, st.radiance, &mut sh),
+                        shading: sh,
+                    };
+                }
+                let (n, p) = self.read_surface(ray, r, &mut sh);
+                let m = self.material(h.prim, &mut sh);
+                sh.run(Kernel::Accumulate);
+                st.radiance += st.throughput.mul_elem(m.emission);
+                // Shadow ray towards the light (t = 1 at the light). One per hit, as in the
+                // papers' non-branching paths, even when the light is behind the surface.
+                sh.run(Kernel::DirectLight);
+                st.pending = self.direct_unshadowed(p, n, m.albedo);
+                st.albedo = m.albedo;
+                st.n = n;
+                st.p = p;
+                st.stage = Stage::Shadow;
+                sh.run(Kernel::ShadowRay);
+                let shadow = Ray::new(p, self.scene.light.position - p, 0.0, 1.0 - 1e-4);
+                self.job(st, shadow, RayKind::Shadow, Query::Any)
+            }
+            (WorkloadKind::Specular, _) => {
+                // Mirror reflection at every hit; the last surface is shaded by the unshadowed
+                // point light, tinted by the albedos on the way.
+                if !h.is_hit() {
+                    return Resumed {
+                        next: self.end_sample(st, st.radiance, &mut sh),
+                        shading: sh,
+                    };
+                }
+                let (n, p) = self.read_surface(ray, r, &mut sh);
+                let m = self.material(h.prim, &mut sh);
+                sh.run(Kernel::DirectLight);
+                st.radiance = st
+                    .throughput
+                    .mul_elem(self.direct_unshadowed(p, n, m.albedo) + m.emission);
+                st.throughput = st.throughput.mul_elem(m.albedo);
+                if st.depth == self.p.specular_bounces {
+                    self.end_sample(st, st.radiance, &mut sh)
+                } else {
+                    st.depth += 1;
+                    sh.run(Kernel::Reflect);
+                    let d = ray.direction;
+                    let refl = Ray::new(p, d - n * (2.0 * d.dot(n)), 0.0, f32::INFINITY);
+                    self.job(st, refl, RayKind::Specular, Query::Closest)
+                }
+            }
+        };
+        Resumed { next, shading: sh }
+    }
+
+    /// The hit point and normal, reading the hit triangle's record.
+    #[inline]
+    fn read_surface(&self, ray: &Ray, r: &TraceResult, sh: &mut Shading) -> (Vec3, Vec3) {
+        sh.run(Kernel::Surface);
+        sh.triangle = Some(r.slot);
+        self.surface(ray, &r.hit)
+    }
+
+    /// The hit triangle's material, reading its record.
+    #[inline]
+    fn material(&self, prim: u32, sh: &mut Shading) -> &Material {
+        let id = self.scene.material_ids[prim as usize];
+        sh.material = Some(id);
+        &self.scene.materials[id as usize]
+    }
+
+    /// The next AO or diffuse ray of an AO/diffuse pixel.
+    #[inline]
+    fn secondary_job(&self, st: &mut PathState, sh: &mut Shading) -> Next {
+        sh.run(Kernel::HaltonRay);
+        let r = self.secondary_ray(st.n, st.p, st.offset, st.depth);
+        let (kind, query) = if self.p.kind == WorkloadKind::Ao {
+            (RayKind::Ao, Query::Any)
+        } else {
+            (RayKind::Diffuse, Query::Closest)
+        };
+        self.job(st, r, kind, query)
+    }
+
+    /// Trace a job with the tracer's configured variant, counting it.
+    #[inline]
+    pub fn trace(&self, job: &RayJob, c: &mut RayCounters) -> TraceResult {
+        TraceResult::from_slot_hit(self.tracer, self.tracer.trace_slots(&job.ray, job.query, c))
+    }
+
+    /// Trace and shade pixel (x, y): the state machine run to its end.
+    pub fn pixel(&self, x: u32, y: u32, st: &mut FrameStats) -> PixelResult {
+        let mut out = PixelResult::default();
+        let (mut ps, mut step) = self.begin(y * self.p.width + x);
+        loop {
+            match step.next {
+                Next::Done(color) => {
+                    out.color = color;
+                    return out;
+                }
+                Next::Trace(job) => {
+                    let mut c = RayCounters::default();
+                    let r = self.trace(&job, &mut c);
+                    st.kind_mut(job.id.kind).record(&c, r.hit.is_hit());
+                    out.nodes_visited = out.nodes_visited.saturating_add(c.nodes_visited);
+                    step = self.resume(&mut ps, &job, &r);
+                }
+            }
+        }
     }
 
     /// The rays of pixel (x, y) that a benchmark of this workload times: the camera ray for
@@ -351,83 +718,148 @@ impl<'a> Integrator<'a> {
             _ => out.push(camera),
         }
     }
+}
 
-    /// One path: camera ray, then at each hit a shadow ray to the point light and (until
-    /// `max_depth` hits) a cosine-weighted bounce. Lambertian BRDF albedo/π with cosine
-    /// sampling: the throughput is multiplied by the albedo.
-    fn path(
-        &self,
-        x: u32,
-        y: u32,
-        s: u32,
-        rng: &mut Pcg32,
-        out: &mut PixelResult,
-        st: &mut FrameStats,
-    ) -> Vec3 {
-        let mut ray = self.camera_ray(x, y, Self::jitter(s, rng));
-        let mut throughput = Vec3::ONE;
-        let mut radiance = Vec3::ZERO;
-        for depth in 0..self.p.max_depth {
-            let totals = if depth == 0 {
-                &mut st.primary
-            } else {
-                &mut st.bounce
-            };
-            let h = self.closest(&ray, out, totals);
-            if !h.is_hit() {
-                break;
-            }
-            let (n, p) = self.surface(&ray, &h);
-            let m = self.scene.material_of(h.prim);
-            radiance += throughput.mul_elem(m.emission);
-            // Shadow ray towards the light (t = 1 at the light). One per hit, as in the
-            // papers' non-branching paths, even when the light is behind the surface.
-            let to_light = self.scene.light.position - p;
-            let shadow = Ray::new(p, to_light, 0.0, 1.0 - 1e-4);
-            if !self.occluded(&shadow, out, &mut st.shadow) {
-                radiance += throughput.mul_elem(self.direct_unshadowed(p, n, m.albedo));
-            }
-            throughput = throughput.mul_elem(m.albedo);
-            if depth + 1 == self.p.max_depth {
-                break;
-            }
-            let dir = cosine_hemisphere(n, rng.next_f32(), rng.next_f32());
-            ray = Ray::new(p, dir, 0.0, f32::INFINITY);
-        }
-        radiance
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::TraceConfig;
+    use rtsim_scene::{SceneRequest, load_scene};
+
+    fn cornell() -> Scene {
+        load_scene(&SceneRequest {
+            name: "cornell",
+            size: 1.0,
+            seed: 1,
+            scene_dir: None,
+        })
+        .unwrap()
     }
 
-    /// Forced specular: mirror reflection at every hit, `specular_bounces` times; the last
-    /// surface is shaded by the unshadowed point light, tinted by the albedos on the way.
-    fn specular(
-        &self,
-        x: u32,
-        y: u32,
-        s: u32,
-        rng: &mut Pcg32,
-        out: &mut PixelResult,
-        st: &mut FrameStats,
-    ) -> Vec3 {
-        let mut ray = self.camera_ray(x, y, Self::jitter(s, rng));
-        let mut tint = Vec3::ONE;
-        let mut last = Vec3::ZERO;
-        for bounce in 0..=self.p.specular_bounces {
-            let totals = if bounce == 0 {
-                &mut st.primary
-            } else {
-                &mut st.specular
-            };
-            let h = self.closest(&ray, out, totals);
-            if !h.is_hit() {
-                break;
-            }
-            let (n, p) = self.surface(&ray, &h);
-            let m = self.scene.material_of(h.prim);
-            last = tint.mul_elem(self.direct_unshadowed(p, n, m.albedo) + m.emission);
-            tint = tint.mul_elem(m.albedo);
-            let d = ray.direction;
-            ray = Ray::new(p, d - n * (2.0 * d.dot(n)), 0.0, f32::INFINITY);
+    fn params(kind: WorkloadKind, spp: u32) -> WorkloadParams {
+        WorkloadParams {
+            kind,
+            width: 24,
+            height: 18,
+            spp,
+            max_depth: 5,
+            specular_bounces: 2,
+            ao_radius: 0.3,
+            seed: 3,
         }
-        last
+    }
+
+    const KINDS: [WorkloadKind; 5] = [
+        WorkloadKind::Primary,
+        WorkloadKind::Ao,
+        WorkloadKind::Diffuse,
+        WorkloadKind::Path,
+        WorkloadKind::Specular,
+    ];
+
+    /// A chip interleaves many pixels' rays: the state machines must carry everything, so
+    /// any interleaving gives the pixel-by-pixel image and counters.
+    #[test]
+    fn interleaved_pixels_equal_pixel_by_pixel() {
+        let scene = cornell();
+        let bvh = rtsim_bvh::build(
+            &scene.triangles,
+            &Default::default(),
+            rtsim_bvh::NodeOrder::DepthFirst,
+        )
+        .unwrap();
+        let tracer = Tracer::new(&scene.triangles, bvh, &TraceConfig::default()).unwrap();
+        for kind in KINDS {
+            for spp in [1, 2] {
+                let integ = Integrator::new(&scene, &tracer, params(kind, spp));
+                let (w, h) = (integ.params().width, integ.params().height);
+                let mut reference = FrameStats::default();
+                let expected: Vec<Vec3> = (0..w * h)
+                    .map(|i| integ.pixel(i % w, i / w, &mut reference).color)
+                    .collect();
+                // Round-robin: one ray of each live pixel in turn, newest pixels last.
+                let mut live: Vec<(PathState, RayJob)> = Vec::new();
+                let mut got = vec![Vec3::splat(-1.0); (w * h) as usize];
+                let mut stats = FrameStats::default();
+                let mut next_pixel = 0;
+                while next_pixel < w * h || !live.is_empty() {
+                    while live.len() < 7 && next_pixel < w * h {
+                        let (st, r) = integ.begin(next_pixel);
+                        let Next::Trace(job) = r.next else {
+                            panic!("a pixel starts with a ray")
+                        };
+                        assert_eq!(r.shading.count(Kernel::CameraRay), 1);
+                        live.push((st, job));
+                        next_pixel += 1;
+                    }
+                    let (mut st, job) = live.remove(0);
+                    let mut c = RayCounters::default();
+                    let res = integ.trace(&job, &mut c);
+                    stats.kind_mut(job.id.kind).record(&c, res.hit.is_hit());
+                    let r = integ.resume(&mut st, &job, &res);
+                    if res.hit.is_hit() && r.shading.count(Kernel::Surface) > 0 {
+                        assert_eq!(r.shading.triangle, Some(res.slot));
+                        assert_eq!(
+                            r.shading.material,
+                            Some(scene.material_ids[res.hit.prim as usize])
+                        );
+                    }
+                    match r.next {
+                        Next::Trace(j) => {
+                            assert_eq!(j.id.pixel, job.id.pixel);
+                            assert!((j.id.sample, j.id.segment) > (job.id.sample, job.id.segment));
+                            live.push((st, j));
+                        }
+                        Next::Done(c) => {
+                            assert_eq!(r.shading.framebuffer, Some(job.id.pixel));
+                            assert_eq!(r.shading.count(Kernel::Finish), 1);
+                            got[job.id.pixel as usize] = c;
+                        }
+                    }
+                }
+                for (a, b) in expected.iter().zip(&got) {
+                    assert_eq!(
+                        a.to_array().map(f32::to_bits),
+                        b.to_array().map(f32::to_bits)
+                    );
+                }
+                assert_eq!(stats, reference, "{kind:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn path_segments_follow_the_papers_budget() {
+        let scene = cornell();
+        let bvh = rtsim_bvh::build(
+            &scene.triangles,
+            &Default::default(),
+            rtsim_bvh::NodeOrder::DepthFirst,
+        )
+        .unwrap();
+        let tracer = Tracer::new(&scene.triangles, bvh, &TraceConfig::default()).unwrap();
+        let integ = Integrator::new(&scene, &tracer, params(WorkloadKind::Path, 1));
+        for pixel in 0..24 * 18 {
+            let (mut st, mut r) = integ.begin(pixel);
+            let mut kinds = Vec::new();
+            while let Next::Trace(job) = r.next {
+                kinds.push(job.id.kind);
+                assert_eq!(job.id.segment as usize, kinds.len() - 1);
+                let res = integ.trace(&job, &mut RayCounters::default());
+                r = integ.resume(&mut st, &job, &res);
+            }
+            // STRaTA §5: at most 5 hits, each with one shadow ray: 10 segments.
+            assert!(kinds.len() <= 10);
+            assert_eq!(kinds[0], RayKind::Primary);
+            for w in kinds.windows(2) {
+                // A shadow ray follows every closest-hit segment that hit; bounces follow
+                // shadow rays.
+                match w[1] {
+                    RayKind::Shadow => assert_ne!(w[0], RayKind::Shadow),
+                    RayKind::Bounce => assert_eq!(w[0], RayKind::Shadow),
+                    k => panic!("unexpected {k:?}"),
+                }
+            }
+        }
     }
 }
