@@ -5,6 +5,8 @@
 //! - [`math`]: [`Vec3`] and [`Aabb`], the geometry of scenes and BVHs, plus [`Affine`]
 //!   transforms for scene descriptors.
 //! - [`ray`]: the [`Ray`] every tracer and hardware model consumes.
+//! - [`real`]: [`Real`], the scalar the kernels are generic over (`f32`, or a counting scalar
+//!   for operation counts).
 //! - [`rng`]: [`Pcg32`], a seeded, counter-friendly generator; per-pixel streams are derived
 //!   with [`rng::stream_seed`] so results do not depend on thread scheduling.
 //! - [`mem`]: the request interface between requesters (caches, TMs, T&I units) and memory
@@ -20,6 +22,7 @@ pub mod math;
 pub mod mem;
 pub mod output;
 pub mod ray;
+pub mod real;
 pub mod rng;
 pub mod stats;
 
@@ -27,4 +30,5 @@ pub use clock::Clock;
 pub use math::{Aabb, Affine, Vec3};
 pub use mem::{MemCompletion, MemOp, MemRequest, MemoryPort, QueueFull};
 pub use ray::Ray;
+pub use real::Real;
 pub use rng::Pcg32;

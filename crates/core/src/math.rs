@@ -2,17 +2,22 @@
 //!
 //! Everything is `f32`, the precision of the hardware being modelled (TRaX and SGRT both use
 //! single-precision units). Operations are plain scalar code that the compiler vectorises.
+//! [`Vec3`] is generic over its scalar ([`Real`], default `f32`) so the kernels can also run
+//! on a counting scalar.
 
+use crate::real::Real;
 use serde::{Deserialize, Serialize};
 use std::ops::{Add, AddAssign, Div, Index, IndexMut, Mul, MulAssign, Neg, Sub, SubAssign};
 
-/// A 3-component single-precision vector (points, directions, colours).
+/// A 3-component vector (points, directions, colours), single precision by default. Generic
+/// over the scalar so the kernels can run on a counting scalar ([`Real`]); `Vec3` alone means
+/// `Vec3<f32>`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[repr(C)]
-pub struct Vec3 {
-    pub x: f32,
-    pub y: f32,
-    pub z: f32,
+pub struct Vec3<T = f32> {
+    pub x: T,
+    pub y: T,
+    pub z: T,
 }
 
 impl Vec3 {
@@ -35,54 +40,75 @@ impl Vec3 {
     pub fn to_array(self) -> [f32; 3] {
         [self.x, self.y, self.z]
     }
+}
+
+impl<T: Real> Vec3<T> {
     #[inline(always)]
-    pub fn dot(self, o: Vec3) -> f32 {
+    pub fn xyz(x: T, y: T, z: T) -> Self {
+        Vec3 { x, y, z }
+    }
+    /// Convert an `f32` vector (inputs: records, rays).
+    #[inline(always)]
+    pub fn from_f32(v: Vec3) -> Self {
+        Vec3::xyz(T::from_f32(v.x), T::from_f32(v.y), T::from_f32(v.z))
+    }
+    /// The `f32` values.
+    #[inline(always)]
+    pub fn value(self) -> Vec3 {
+        Vec3::new(self.x.value(), self.y.value(), self.z.value())
+    }
+    #[inline(always)]
+    pub fn dot(self, o: Vec3<T>) -> T {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
     #[inline(always)]
-    pub fn cross(self, o: Vec3) -> Vec3 {
-        Vec3::new(
+    pub fn cross(self, o: Vec3<T>) -> Vec3<T> {
+        Vec3::xyz(
             self.y * o.z - self.z * o.y,
             self.z * o.x - self.x * o.z,
             self.x * o.y - self.y * o.x,
         )
     }
     #[inline(always)]
-    pub fn length_squared(self) -> f32 {
+    pub fn length_squared(self) -> T {
         self.dot(self)
     }
     #[inline(always)]
-    pub fn length(self) -> f32 {
+    pub fn length(self) -> T {
         self.length_squared().sqrt()
     }
     /// Unit vector in the same direction; the zero vector stays zero.
     #[inline(always)]
-    pub fn normalized(self) -> Vec3 {
+    pub fn normalized(self) -> Vec3<T> {
         let l = self.length();
-        if l > 0.0 { self * (1.0 / l) } else { self }
+        if l > T::from_f32(0.0) {
+            self * (T::from_f32(1.0) / l)
+        } else {
+            self
+        }
     }
     #[inline(always)]
-    pub fn min(self, o: Vec3) -> Vec3 {
-        Vec3::new(self.x.min(o.x), self.y.min(o.y), self.z.min(o.z))
+    pub fn min(self, o: Vec3<T>) -> Vec3<T> {
+        Vec3::xyz(self.x.min(o.x), self.y.min(o.y), self.z.min(o.z))
     }
     #[inline(always)]
-    pub fn max(self, o: Vec3) -> Vec3 {
-        Vec3::new(self.x.max(o.x), self.y.max(o.y), self.z.max(o.z))
+    pub fn max(self, o: Vec3<T>) -> Vec3<T> {
+        Vec3::xyz(self.x.max(o.x), self.y.max(o.y), self.z.max(o.z))
     }
     #[inline(always)]
-    pub fn mul_elem(self, o: Vec3) -> Vec3 {
-        Vec3::new(self.x * o.x, self.y * o.y, self.z * o.z)
+    pub fn mul_elem(self, o: Vec3<T>) -> Vec3<T> {
+        Vec3::xyz(self.x * o.x, self.y * o.y, self.z * o.z)
     }
     #[inline(always)]
-    pub fn abs(self) -> Vec3 {
-        Vec3::new(self.x.abs(), self.y.abs(), self.z.abs())
+    pub fn abs(self) -> Vec3<T> {
+        Vec3::xyz(self.x.abs(), self.y.abs(), self.z.abs())
     }
     #[inline(always)]
-    pub fn max_component(self) -> f32 {
+    pub fn max_component(self) -> T {
         self.x.max(self.y).max(self.z)
     }
     #[inline(always)]
-    pub fn min_component(self) -> f32 {
+    pub fn min_component(self) -> T {
         self.x.min(self.y).min(self.z)
     }
     /// Index (0, 1, 2) of the largest component; ties go to the lower axis.
@@ -102,27 +128,29 @@ impl Vec3 {
     }
     /// Component-wise reciprocal. Division by ±0 gives ±infinity, which the slab test relies on.
     #[inline(always)]
-    pub fn recip(self) -> Vec3 {
-        Vec3::new(1.0 / self.x, 1.0 / self.y, 1.0 / self.z)
+    pub fn recip(self) -> Vec3<T> {
+        let one = T::from_f32(1.0);
+        Vec3::xyz(one / self.x, one / self.y, one / self.z)
     }
     /// An orthonormal basis (t, b) with `self` (a unit vector) as the third axis
     /// (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017).
     #[inline]
-    pub fn orthonormal_basis(self) -> (Vec3, Vec3) {
-        let sign = 1.0f32.copysign(self.z);
-        let a = -1.0 / (sign + self.z);
+    pub fn orthonormal_basis(self) -> (Vec3<T>, Vec3<T>) {
+        let one = T::from_f32(1.0);
+        let sign = one.copysign(self.z);
+        let a = -one / (sign + self.z);
         let b = self.x * self.y * a;
         (
-            Vec3::new(1.0 + sign * self.x * self.x * a, sign * b, -sign * self.x),
-            Vec3::new(b, sign + self.y * self.y * a, -self.y),
+            Vec3::xyz(one + sign * self.x * self.x * a, sign * b, -sign * self.x),
+            Vec3::xyz(b, sign + self.y * self.y * a, -self.y),
         )
     }
 }
 
-impl Index<usize> for Vec3 {
-    type Output = f32;
+impl<T> Index<usize> for Vec3<T> {
+    type Output = T;
     #[inline(always)]
-    fn index(&self, i: usize) -> &f32 {
+    fn index(&self, i: usize) -> &T {
         match i {
             0 => &self.x,
             1 => &self.y,
@@ -130,9 +158,9 @@ impl Index<usize> for Vec3 {
         }
     }
 }
-impl IndexMut<usize> for Vec3 {
+impl<T> IndexMut<usize> for Vec3<T> {
     #[inline(always)]
-    fn index_mut(&mut self, i: usize) -> &mut f32 {
+    fn index_mut(&mut self, i: usize) -> &mut T {
         match i {
             0 => &mut self.x,
             1 => &mut self.y,
@@ -143,16 +171,16 @@ impl IndexMut<usize> for Vec3 {
 
 macro_rules! vec_binop {
     ($tr:ident, $f:ident, $tra:ident, $fa:ident, $op:tt) => {
-        impl $tr for Vec3 {
-            type Output = Vec3;
+        impl<T: Real> $tr for Vec3<T> {
+            type Output = Vec3<T>;
             #[inline(always)]
-            fn $f(self, o: Vec3) -> Vec3 {
-                Vec3::new(self.x $op o.x, self.y $op o.y, self.z $op o.z)
+            fn $f(self, o: Vec3<T>) -> Vec3<T> {
+                Vec3::xyz(self.x $op o.x, self.y $op o.y, self.z $op o.z)
             }
         }
-        impl $tra for Vec3 {
+        impl<T: Real> $tra for Vec3<T> {
             #[inline(always)]
-            fn $fa(&mut self, o: Vec3) {
+            fn $fa(&mut self, o: Vec3<T>) {
                 *self = *self $op o;
             }
         }
@@ -161,11 +189,11 @@ macro_rules! vec_binop {
 vec_binop!(Add, add, AddAssign, add_assign, +);
 vec_binop!(Sub, sub, SubAssign, sub_assign, -);
 
-impl Mul<f32> for Vec3 {
-    type Output = Vec3;
+impl<T: Real> Mul<T> for Vec3<T> {
+    type Output = Vec3<T>;
     #[inline(always)]
-    fn mul(self, s: f32) -> Vec3 {
-        Vec3::new(self.x * s, self.y * s, self.z * s)
+    fn mul(self, s: T) -> Vec3<T> {
+        Vec3::xyz(self.x * s, self.y * s, self.z * s)
     }
 }
 impl Mul<Vec3> for f32 {
@@ -175,24 +203,24 @@ impl Mul<Vec3> for f32 {
         v * self
     }
 }
-impl MulAssign<f32> for Vec3 {
+impl<T: Real> MulAssign<T> for Vec3<T> {
     #[inline(always)]
-    fn mul_assign(&mut self, s: f32) {
+    fn mul_assign(&mut self, s: T) {
         *self = *self * s;
     }
 }
-impl Div<f32> for Vec3 {
-    type Output = Vec3;
+impl<T: Real> Div<T> for Vec3<T> {
+    type Output = Vec3<T>;
     #[inline(always)]
-    fn div(self, s: f32) -> Vec3 {
-        self * (1.0 / s)
+    fn div(self, s: T) -> Vec3<T> {
+        self * (T::from_f32(1.0) / s)
     }
 }
-impl Neg for Vec3 {
-    type Output = Vec3;
+impl<T: Real> Neg for Vec3<T> {
+    type Output = Vec3<T>;
     #[inline(always)]
-    fn neg(self) -> Vec3 {
-        Vec3::new(-self.x, -self.y, -self.z)
+    fn neg(self) -> Vec3<T> {
+        Vec3::xyz(-self.x, -self.y, -self.z)
     }
 }
 

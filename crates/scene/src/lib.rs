@@ -31,7 +31,7 @@ pub mod mesh;
 pub mod procedural;
 pub mod registry;
 
-use rtsim_core::{Aabb, Vec3};
+use rtsim_core::{Aabb, Real, Vec3};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -99,13 +99,38 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Vec3 {
-        let (r, u, f) = *basis;
-        let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
-        let aspect = width as f32 / height as f32;
-        let sx = (2.0 * x / width as f32 - 1.0) * tan_half * aspect;
-        let sy = (1.0 - 2.0 * y / height as f32) * tan_half;
-        f + r * sx + u * sy
+        let (tan_half, aspect) = self.frame_constants(width, height);
+        camera_direction(basis, tan_half, aspect, x, y, width as f32, height as f32)
     }
+
+    /// The per-frame constants of [`Camera::direction_through`]: tan(fov/2) and the aspect
+    /// ratio.
+    #[inline]
+    pub fn frame_constants(&self, width: u32, height: u32) -> (f32, f32) {
+        (
+            (self.fov_y_deg.to_radians() * 0.5).tan(),
+            width as f32 / height as f32,
+        )
+    }
+}
+
+/// [`Camera::direction_through`]'s per-ray arithmetic, generic over the scalar so its
+/// operation count can be taken (`rtsim_trace::ops`).
+#[inline(always)]
+pub fn camera_direction<R: Real>(
+    basis: &(Vec3<R>, Vec3<R>, Vec3<R>),
+    tan_half: R,
+    aspect: R,
+    x: R,
+    y: R,
+    width: R,
+    height: R,
+) -> Vec3<R> {
+    let (r, u, f) = *basis;
+    let (one, two) = (R::from_f32(1.0), R::from_f32(2.0));
+    let sx = (two * x / width - one) * tan_half * aspect;
+    let sy = (one - two * y / height) * tan_half;
+    f + r * sx + u * sy
 }
 
 /// An isotropic point light.

@@ -5,7 +5,7 @@
 //! Cranley–Patterson rotation drawn from the pixel's own seeded stream. Path tracing draws its
 //! bounce directions from the pixel's [`Pcg32`](rtsim_core::Pcg32) stream.
 
-use rtsim_core::Vec3;
+use rtsim_core::{Real, Vec3};
 
 /// Radical inverse of `i` in base 2 (van der Corput), exact in f32.
 #[inline]
@@ -42,26 +42,30 @@ pub fn halton2(i: u32, offset: (f32, f32)) -> (f32, f32) {
 /// Cosine-weighted direction in the hemisphere around unit normal `n` from a point of the
 /// unit square (Shirley–Chiu concentric mapping, then lifting to the hemisphere).
 #[inline]
-pub fn cosine_hemisphere(n: Vec3, u: f32, v: f32) -> Vec3 {
+pub fn cosine_hemisphere<R: Real>(n: Vec3<R>, u: R, v: R) -> Vec3<R> {
     let (dx, dy) = concentric_disk(u, v);
-    let dz = (1.0 - dx * dx - dy * dy).max(0.0).sqrt();
+    let dz = (R::from_f32(1.0) - dx * dx - dy * dy)
+        .max(R::from_f32(0.0))
+        .sqrt();
     let (t, b) = n.orthonormal_basis();
     (t * dx + b * dy + n * dz).normalized()
 }
 
 /// Shirley & Chiu's concentric square-to-disk map (JGT 1997).
 #[inline]
-fn concentric_disk(u: f32, v: f32) -> (f32, f32) {
-    let (a, b) = (2.0 * u - 1.0, 2.0 * v - 1.0);
-    if a == 0.0 && b == 0.0 {
-        return (0.0, 0.0);
+fn concentric_disk<R: Real>(u: R, v: R) -> (R, R) {
+    let (zero, one, two) = (R::from_f32(0.0), R::from_f32(1.0), R::from_f32(2.0));
+    let (a, b) = (two * u - one, two * v - one);
+    if a == zero && b == zero {
+        return (zero, zero);
     }
+    let quarter_pi = R::from_f32(std::f32::consts::FRAC_PI_4);
     let (r, theta) = if a.abs() > b.abs() {
-        (a, std::f32::consts::FRAC_PI_4 * (b / a))
+        (a, quarter_pi * (b / a))
     } else {
         (
             b,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
+            R::from_f32(std::f32::consts::FRAC_PI_2) - quarter_pi * (a / b),
         )
     };
     (r * theta.cos(), r * theta.sin())

@@ -15,6 +15,7 @@
 use crate::config::WorkloadKind;
 use crate::counters::{CounterTotals, RayCounters};
 use crate::sampling::{cosine_hemisphere, halton2};
+use crate::shade;
 use crate::step::Query;
 use crate::tracer::{Hit, Tracer};
 use crate::traverse::SlotHit;
@@ -22,7 +23,6 @@ use rtsim_core::rng::stream_seed;
 use rtsim_core::{Pcg32, Ray, Vec3};
 use rtsim_scene::{Material, Scene};
 use serde::{Deserialize, Serialize};
-use std::f32::consts::FRAC_1_PI;
 use std::ops::AddAssign;
 
 /// Counters per ray kind for a frame.
@@ -206,14 +206,18 @@ pub enum Kernel {
     HaltonRay = 7,
     /// A mirror reflection.
     Reflect = 8,
-    /// Accumulate one value into the pixel's or path's sums.
+    /// `sum += x` on a colour (3 additions).
     Accumulate = 9,
-    /// Average the samples and write the framebuffer.
-    Finish = 10,
+    /// `acc += w ⊙ x` (or `acc = w ⊙ (x + y)`): 3 multiplies and 3 additions.
+    Weighted = 10,
+    /// `t = t ⊙ a`: 3 multiplies.
+    Attenuate = 11,
+    /// Average the samples (one divide, 3 multiplies) and write the framebuffer.
+    Finish = 12,
 }
 
 /// Number of [`Kernel`] kinds.
-pub const KERNELS: usize = 11;
+pub const KERNELS: usize = 13;
 
 /// What one state-machine transition did besides tracing: the kernels it ran and the
 /// records it read or wrote, by index (the memory image gives their addresses).
@@ -364,14 +368,17 @@ impl<'a> Integrator<'a> {
     #[inline]
     pub fn camera_ray(&self, x: u32, y: u32, jitter: (f32, f32)) -> Ray {
         let cam = &self.scene.camera;
-        let d = cam.direction_through(
+        let (tan_half, aspect) = cam.frame_constants(self.p.width, self.p.height);
+        let d = shade::camera_ray_direction(
             &self.basis,
+            tan_half,
+            aspect,
             x as f32 + jitter.0,
             y as f32 + jitter.1,
-            self.p.width,
-            self.p.height,
+            self.p.width as f32,
+            self.p.height as f32,
         );
-        Ray::new(cam.eye, d.normalized(), 0.0, f32::INFINITY)
+        Ray::new(cam.eye, d, 0.0, f32::INFINITY)
     }
 
     /// Geometric normal of the hit triangle, facing against `dir`, and the hit point pushed
@@ -379,22 +386,14 @@ impl<'a> Integrator<'a> {
     #[inline]
     fn surface(&self, ray: &Ray, h: &Hit) -> (Vec3, Vec3) {
         let t = &self.scene.triangles[h.prim as usize];
-        let mut n = (t[1] - t[0]).cross(t[2] - t[0]).normalized();
-        if n.dot(ray.direction) > 0.0 {
-            n = -n;
-        }
-        // Interpolate from the vertices rather than o + t·d: more precise far from the origin.
-        let p = t[0] * (1.0 - h.u - h.v) + t[1] * h.u + t[2] * h.v;
-        (n, p + n * self.eps)
+        shade::surface(t, h.u, h.v, ray.direction, self.eps)
     }
 
     /// Unshadowed Lambertian response to the point light at `p` with normal `n`.
     #[inline]
     fn direct_unshadowed(&self, p: Vec3, n: Vec3, albedo: Vec3) -> Vec3 {
-        let l = self.scene.light.position - p;
-        let d2 = l.length_squared().max(f32::MIN_POSITIVE);
-        let cos = (n.dot(l) / d2.sqrt()).max(0.0);
-        albedo.mul_elem(self.scene.light.intensity) * (FRAC_1_PI * cos / d2)
+        let l = &self.scene.light;
+        shade::direct_unshadowed(l.position, l.intensity, p, n, albedo)
     }
 
     #[inline]
@@ -517,7 +516,7 @@ impl<'a> Integrator<'a> {
                     let (n, _) = self.read_surface(ray, r, &mut sh);
                     sh.run(Kernel::Headlight);
                     let m = self.material(h.prim, &mut sh);
-                    m.albedo * (0.2 + 0.8 * n.dot(-ray.direction).max(0.0)) + m.emission
+                    shade::headlight(m.albedo, m.emission, n, ray.direction)
                 } else {
                     Vec3::ZERO
                 };
@@ -541,18 +540,20 @@ impl<'a> Integrator<'a> {
                 self.secondary_job(st, &mut sh)
             }
             (WorkloadKind::Ao | WorkloadKind::Diffuse, _) => {
-                sh.run(Kernel::Accumulate);
                 if self.p.kind == WorkloadKind::Ao {
                     if !h.is_hit() {
+                        sh.run(Kernel::Accumulate);
                         st.sum += Vec3::ONE;
                     }
                 } else {
                     // One-bounce inter-reflection: the secondary surface's albedo lit by the
                     // unshadowed point light, or the sky.
+                    sh.run(Kernel::Accumulate);
                     st.sum += if h.is_hit() {
                         let (n2, p2) = self.read_surface(ray, r, &mut sh);
                         let m2 = self.material(h.prim, &mut sh);
                         sh.run(Kernel::DirectLight);
+                        sh.run(Kernel::Accumulate);
                         self.direct_unshadowed(p2, n2, m2.albedo) + m2.emission
                     } else {
                         SKY
@@ -564,6 +565,7 @@ impl<'a> Integrator<'a> {
                     let color = if self.p.kind == WorkloadKind::Ao {
                         mean
                     } else {
+                        sh.run(Kernel::Attenuate);
                         st.albedo.mul_elem(mean)
                     };
                     self.finish(st, color, &mut sh)
@@ -573,16 +575,17 @@ impl<'a> Integrator<'a> {
             }
             (WorkloadKind::Path, Stage::Shadow) => {
                 if !h.is_hit() {
-                    sh.run(Kernel::Accumulate);
+                    sh.run(Kernel::Weighted);
                     st.radiance += st.throughput.mul_elem(st.pending);
                 }
+                sh.run(Kernel::Attenuate);
                 st.throughput = st.throughput.mul_elem(st.albedo);
                 st.depth += 1;
                 if st.depth == self.p.max_depth {
                     self.end_sample(st, st.radiance, &mut sh)
                 } else {
                     sh.run(Kernel::CosineBounce);
-                    let dir = cosine_hemisphere(st.n, st.rng.next_f32(), st.rng.next_f32());
+                    let dir = shade::cosine_bounce(st.n, st.rng.next_f32(), st.rng.next_f32());
                     st.stage = Stage::Segment;
                     let ray = Ray::new(st.p, dir, 0.0, f32::INFINITY);
                     self.job(st, ray, RayKind::Bounce, Query::Closest)
@@ -597,7 +600,7 @@ impl<'a> Integrator<'a> {
                 }
                 let (n, p) = self.read_surface(ray, r, &mut sh);
                 let m = self.material(h.prim, &mut sh);
-                sh.run(Kernel::Accumulate);
+                sh.run(Kernel::Weighted);
                 st.radiance += st.throughput.mul_elem(m.emission);
                 // Shadow ray towards the light (t = 1 at the light). One per hit, as in the
                 // papers' non-branching paths, even when the light is behind the surface.
@@ -608,7 +611,8 @@ impl<'a> Integrator<'a> {
                 st.p = p;
                 st.stage = Stage::Shadow;
                 sh.run(Kernel::ShadowRay);
-                let shadow = Ray::new(p, self.scene.light.position - p, 0.0, 1.0 - 1e-4);
+                let to_light = shade::shadow_direction(self.scene.light.position, p);
+                let shadow = Ray::new(p, to_light, 0.0, 1.0 - 1e-4);
                 self.job(st, shadow, RayKind::Shadow, Query::Any)
             }
             (WorkloadKind::Specular, _) => {
@@ -623,9 +627,11 @@ impl<'a> Integrator<'a> {
                 let (n, p) = self.read_surface(ray, r, &mut sh);
                 let m = self.material(h.prim, &mut sh);
                 sh.run(Kernel::DirectLight);
+                sh.run(Kernel::Weighted);
                 st.radiance = st
                     .throughput
                     .mul_elem(self.direct_unshadowed(p, n, m.albedo) + m.emission);
+                sh.run(Kernel::Attenuate);
                 st.throughput = st.throughput.mul_elem(m.albedo);
                 if st.depth == self.p.specular_bounces {
                     self.end_sample(st, st.radiance, &mut sh)
@@ -633,7 +639,7 @@ impl<'a> Integrator<'a> {
                     st.depth += 1;
                     sh.run(Kernel::Reflect);
                     let d = ray.direction;
-                    let refl = Ray::new(p, d - n * (2.0 * d.dot(n)), 0.0, f32::INFINITY);
+                    let refl = Ray::new(p, shade::reflect(d, n), 0.0, f32::INFINITY);
                     self.job(st, refl, RayKind::Specular, Query::Closest)
                 }
             }

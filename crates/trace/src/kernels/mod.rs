@@ -8,5 +8,5 @@
 pub mod slab;
 pub mod triangle;
 
-pub use slab::{RayBox, slab_test};
-pub use triangle::{TriHit, TriKernel, moller_trumbore, plucker, wald};
+pub use slab::{RayBox, box_entry, inverse_direction, slab_test};
+pub use triangle::{Exit, HIT, TriHit, TriKernel, moller_trumbore, plucker, wald};

@@ -1,7 +1,7 @@
 //! Ray–box slab test (Kay & Kajiya 1986; Williams et al. 2005), the TRaX/STRaTA box kernel:
 //! 6 multiplies and 6 subtracts plus comparisons per box (STRaTA §3.3).
 
-use rtsim_core::{Aabb, Ray, Vec3};
+use rtsim_core::{Aabb, Ray, Real, Vec3};
 
 /// Per-ray data of the slab test: the origin and the inverse direction.
 ///
@@ -17,31 +17,51 @@ pub struct RayBox {
 impl RayBox {
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let inv = |d: f32| {
-            let r = 1.0 / d;
-            if r.is_finite() {
-                r
-            } else {
-                f32::MAX.copysign(d)
-            }
-        };
-        let d = ray.direction;
         RayBox {
             origin: ray.origin,
-            inv_dir: Vec3::new(inv(d.x), inv(d.y), inv(d.z)),
+            inv_dir: inverse_direction(ray.direction),
         }
     }
+}
+
+/// The slab test's inverse direction (the per-ray setup of box testing): `1/d` per
+/// component, ±`f32::MAX` where that is not finite.
+#[inline(always)]
+pub fn inverse_direction<R: Real>(d: Vec3<R>) -> Vec3<R> {
+    let inv = |d: R| {
+        let r = R::from_f32(1.0) / d;
+        if r.is_finite() {
+            r
+        } else {
+            R::from_f32(f32::MAX).copysign(d)
+        }
+    };
+    Vec3::xyz(inv(d.x), inv(d.y), inv(d.z))
 }
 
 /// Entry distance of the ray into `b` within `[tmin, tmax]`, or `None` on a miss.
 #[inline(always)]
 pub fn slab_test(r: &RayBox, b: &Aabb, tmin: f32, tmax: f32) -> Option<f32> {
-    let t0x = (b.min.x - r.origin.x) * r.inv_dir.x;
-    let t1x = (b.max.x - r.origin.x) * r.inv_dir.x;
-    let t0y = (b.min.y - r.origin.y) * r.inv_dir.y;
-    let t1y = (b.max.y - r.origin.y) * r.inv_dir.y;
-    let t0z = (b.min.z - r.origin.z) * r.inv_dir.z;
-    let t1z = (b.max.z - r.origin.z) * r.inv_dir.z;
+    box_entry(r.origin, r.inv_dir, b.min, b.max, tmin, tmax)
+}
+
+/// The slab test, generic over the scalar: 6 subtractions, 6 multiplies, 12 min/max and one
+/// comparison (STRaTA §3.3's count).
+#[inline(always)]
+pub fn box_entry<R: Real>(
+    o: Vec3<R>,
+    inv: Vec3<R>,
+    min: Vec3<R>,
+    max: Vec3<R>,
+    tmin: R,
+    tmax: R,
+) -> Option<R> {
+    let t0x = (min.x - o.x) * inv.x;
+    let t1x = (max.x - o.x) * inv.x;
+    let t0y = (min.y - o.y) * inv.y;
+    let t1y = (max.y - o.y) * inv.y;
+    let t0z = (min.z - o.z) * inv.z;
+    let t1z = (max.z - o.z) * inv.z;
     let near = t0x.min(t1x).max(t0y.min(t1y)).max(t0z.min(t1z)).max(tmin);
     let far = t0x.max(t1x).min(t0y.max(t1y)).min(t0z.max(t1z)).min(tmax);
     if near <= far { Some(near) } else { None }

@@ -10,7 +10,7 @@
 //! Each test is a [`TriKernel`]: `prepare` turns a triangle into the record the kernel reads
 //! (what the hardware would store per triangle), `intersect` tests one ray against it.
 
-use rtsim_core::{Ray, Vec3};
+use rtsim_core::{Ray, Real, Vec3};
 
 /// A hit on one triangle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,13 +20,26 @@ pub struct TriHit {
     pub v: f32,
 }
 
+/// Which way a triangle test ended: [`HIT`] or the kernel's numbered miss (the `exit` module
+/// of each kernel lists them). Each exit runs a fixed sequence of operations, published by
+/// `crate::ops`, so a hardware model charges exactly what the test did.
+pub type Exit = u8;
+
+/// The exit of every kernel that found a hit.
+pub const HIT: Exit = 0;
+
 /// A ray–triangle test with its precomputed per-triangle record.
 pub trait TriKernel: Send + Sync + 'static {
     type Data: Copy + Send + Sync + std::fmt::Debug;
     /// Short name for reports.
     const NAME: &'static str;
     fn prepare(tri: &[Vec3; 3]) -> Self::Data;
-    fn intersect(data: &Self::Data, ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit>;
+    /// The test, with the exit it took.
+    fn test(data: &Self::Data, ray: &Ray, tmin: f32, tmax: f32) -> Result<TriHit, Exit>;
+    #[inline(always)]
+    fn intersect(data: &Self::Data, ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
+        Self::test(data, ray, tmin, tmax).ok()
+    }
 }
 
 /// Möller & Trumbore, "Fast, minimum storage ray/triangle intersection", JGT 1997.
@@ -65,41 +78,131 @@ pub struct WaldTri {
     pub c_d: f32,
 }
 
+/// Exits of [`moller_trumbore_exit`].
+pub mod mt_exit {
+    /// `det == 0`: the ray is parallel to the plane.
+    pub const PARALLEL: u8 = 1;
+    /// `u < 0` (one comparison).
+    pub const U_LOW: u8 = 2;
+    /// `u > 1` (two comparisons).
+    pub const U_HIGH: u8 = 3;
+    /// `v < 0`.
+    pub const V_LOW: u8 = 4;
+    /// `u + v > 1`.
+    pub const UV_HIGH: u8 = 5;
+    /// `t <= tmin` (one comparison).
+    pub const T_LOW: u8 = 6;
+    /// `t >= tmax` (two comparisons).
+    pub const T_HIGH: u8 = 7;
+    /// Every exit, [`super::HIT`] first.
+    pub const ALL: [u8; 8] = [0, 1, 2, 3, 4, 5, 6, 7];
+}
+
+/// Exits of [`plucker_exit`].
+pub mod plucker_exit {
+    /// The signed volumes have mixed signs: the ray passes outside an edge.
+    pub const OUTSIDE: u8 = 1;
+    /// `n·d == 0`: parallel to the plane (or a degenerate triangle).
+    pub const PARALLEL: u8 = 2;
+    /// The plane is hit outside `(tmin, tmax)` (decided without dividing).
+    pub const RANGE: u8 = 3;
+    /// After the divide, rounding put `t` outside the interval.
+    pub const T_ROUNDED: u8 = 4;
+    pub const ALL: [u8; 5] = [0, 1, 2, 3, 4];
+}
+
+/// Exits of [`wald_exit`].
+pub mod wald_exit {
+    /// A degenerate triangle (`k = 3`).
+    pub const DEGENERATE: u8 = 1;
+    /// Parallel to the plane.
+    pub const PARALLEL: u8 = 2;
+    /// `t <= tmin` (one comparison).
+    pub const T_LOW: u8 = 3;
+    /// `t >= tmax` (two comparisons).
+    pub const T_HIGH: u8 = 4;
+    /// `u < 0`.
+    pub const U_LOW: u8 = 5;
+    /// `v < 0`.
+    pub const V_LOW: u8 = 6;
+    /// `u + v > 1`.
+    pub const UV_HIGH: u8 = 7;
+    pub const ALL: [u8; 8] = [0, 1, 2, 3, 4, 5, 6, 7];
+}
+
 impl TriKernel for MollerTrumbore {
     type Data = [Vec3; 3];
     const NAME: &'static str = "moller-trumbore";
     #[inline(always)]
     fn prepare(t: &[Vec3; 3]) -> [Vec3; 3] {
-        [t[0], t[1] - t[0], t[2] - t[0]]
+        mt_edges(t)
     }
     #[inline(always)]
-    fn intersect(d: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
-        moller_trumbore(d, ray, tmin, tmax)
+    fn test(d: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Result<TriHit, Exit> {
+        moller_trumbore_exit(d[0], d[1], d[2], ray.origin, ray.direction, tmin, tmax)
+            .map(|(t, u, v)| TriHit { t, u, v })
     }
+}
+
+/// The Möller–Trumbore record from the vertices (what a TRaX thread computes after loading
+/// the vertex record of the memory image: two edge subtractions).
+#[inline(always)]
+pub fn mt_edges<R: Real>(t: &[Vec3<R>; 3]) -> [Vec3<R>; 3] {
+    [t[0], t[1] - t[0], t[2] - t[0]]
 }
 
 /// Möller–Trumbore on a prepared record `[v0, e1, e2]`.
 #[inline(always)]
 pub fn moller_trumbore(rec: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
-    let [v0, e1, e2] = *rec;
-    let p = ray.direction.cross(e2);
+    MollerTrumbore::intersect(rec, ray, tmin, tmax)
+}
+
+/// Möller–Trumbore, generic over the scalar: `(t, u, v)` or the exit taken.
+// Negated comparisons on purpose: a NaN must fail each test, as in the accepted interval
+// `tmin < t < tmax`.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[inline(always)]
+pub fn moller_trumbore_exit<R: Real>(
+    v0: Vec3<R>,
+    e1: Vec3<R>,
+    e2: Vec3<R>,
+    o: Vec3<R>,
+    d: Vec3<R>,
+    tmin: R,
+    tmax: R,
+) -> Result<(R, R, R), Exit> {
+    let (zero, one) = (R::from_f32(0.0), R::from_f32(1.0));
+    let p = d.cross(e2);
     let det = e1.dot(p);
-    if det == 0.0 {
-        return None;
+    if det == zero {
+        return Err(mt_exit::PARALLEL);
     }
-    let inv = 1.0 / det;
-    let s = ray.origin - v0;
+    let inv = one / det;
+    let s = o - v0;
     let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
+    // `(0.0..=1.0).contains(&u)`, spelt out: a NaN fails the first comparison.
+    if !(zero <= u) {
+        return Err(mt_exit::U_LOW);
+    }
+    if !(u <= one) {
+        return Err(mt_exit::U_HIGH);
     }
     let q = s.cross(e1);
-    let v = ray.direction.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
+    let v = d.dot(q) * inv;
+    if v < zero {
+        return Err(mt_exit::V_LOW);
+    }
+    if u + v > one {
+        return Err(mt_exit::UV_HIGH);
     }
     let t = e2.dot(q) * inv;
-    (t > tmin && t < tmax).then_some(TriHit { t, u, v })
+    if !(t > tmin) {
+        return Err(mt_exit::T_LOW);
+    }
+    if !(t < tmax) {
+        return Err(mt_exit::T_HIGH);
+    }
+    Ok((t, u, v))
 }
 
 impl TriKernel for Plucker {
@@ -110,58 +213,68 @@ impl TriKernel for Plucker {
         *t
     }
     #[inline(always)]
-    fn intersect(d: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
-        plucker(d, ray, tmin, tmax)
+    fn test(d: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Result<TriHit, Exit> {
+        plucker_exit(d, ray.origin, ray.direction, tmin, tmax).map(|(t, u, v)| TriHit { t, u, v })
     }
 }
 
 /// Plücker test on the three vertices.
 #[inline(always)]
 pub fn plucker(tri: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
-    let d = ray.direction;
-    let a = tri[0] - ray.origin;
-    let b = tri[1] - ray.origin;
-    let c = tri[2] - ray.origin;
+    Plucker::intersect(tri, ray, tmin, tmax)
+}
+
+/// The Plücker test, generic over the scalar. The three sign tests and the interval test are
+/// evaluated in full, as STRaTA's triangle pipeline does (no short-circuit).
+#[inline(always)]
+pub fn plucker_exit<R: Real>(
+    tri: &[Vec3<R>; 3],
+    o: Vec3<R>,
+    d: Vec3<R>,
+    tmin: R,
+    tmax: R,
+) -> Result<(R, R, R), Exit> {
+    let (zero, one) = (R::from_f32(0.0), R::from_f32(1.0));
+    let a = tri[0] - o;
+    let b = tri[1] - o;
+    let c = tri[2] - o;
     // Signed volumes: proportional to the barycentric weights of v0, v1, v2. Mixed signs:
     // the ray passes outside an edge.
     let w0 = d.dot(c.cross(b));
     let w1 = d.dot(a.cross(c));
     let w2 = d.dot(b.cross(a));
-    let any_neg = w0 < 0.0 || w1 < 0.0 || w2 < 0.0;
-    let any_pos = w0 > 0.0 || w1 > 0.0 || w2 > 0.0;
+    let any_neg = (w0 < zero) | (w1 < zero) | (w2 < zero);
+    let any_pos = (w0 > zero) | (w1 > zero) | (w2 > zero);
     if any_neg && any_pos {
-        return None;
+        return Err(plucker_exit::OUTSIDE);
     }
     // The plane gives t = n·a / n·d with n = (v1-v0)×(v2-v0) from the edges (the sum of the
     // signed volumes, mathematically -n·d, loses precision when the origin is far from a small
     // triangle).
     let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
     let nd = n.dot(d);
-    if nd == 0.0 {
-        return None;
+    if nd == zero {
+        return Err(plucker_exit::PARALLEL);
     }
     let na = n.dot(a);
     // Decide the interval on t·(n·d), so the divide happens only on a hit.
-    let in_range = if nd > 0.0 {
-        na > tmin * nd && na < tmax * nd
+    let (lo, hi) = (tmin * nd, tmax * nd);
+    let in_range = if nd > zero {
+        (na > lo) & (na < hi)
     } else {
-        na < tmin * nd && na > tmax * nd
+        (na < lo) & (na > hi)
     };
     if !in_range {
-        return None;
+        return Err(plucker_exit::RANGE);
     }
     // The one divide, on a hit. Re-check the interval after rounding so all kernels share the
     // exact acceptance rule `tmin < t < tmax`.
-    let inv = 1.0 / nd;
+    let inv = one / nd;
     let t = na * inv;
-    if !(t > tmin && t < tmax) {
-        return None;
+    if !((t > tmin) & (t < tmax)) {
+        return Err(plucker_exit::T_ROUNDED);
     }
-    Some(TriHit {
-        t,
-        u: -w1 * inv,
-        v: -w2 * inv,
-    })
+    Ok((t, -w1 * inv, -w2 * inv))
 }
 
 impl Wald {
@@ -215,41 +328,72 @@ impl TriKernel for Wald {
         Wald::record(t)
     }
     #[inline(always)]
-    fn intersect(d: &WaldTri, ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
-        wald(d, ray, tmin, tmax)
+    fn test(d: &WaldTri, ray: &Ray, tmin: f32, tmax: f32) -> Result<TriHit, Exit> {
+        let w = [
+            d.n_u, d.n_v, d.n_d, d.b_nu, d.b_nv, d.b_d, d.c_nu, d.c_nv, d.c_d,
+        ];
+        wald_exit(&w, d.k, ray.origin, ray.direction, tmin, tmax).map(|(t, u, v)| TriHit {
+            t,
+            u,
+            v,
+        })
     }
 }
 
 /// Wald's test on a precomputed record.
 #[inline(always)]
 pub fn wald(w: &WaldTri, ray: &Ray, tmin: f32, tmax: f32) -> Option<TriHit> {
+    Wald::intersect(w, ray, tmin, tmax)
+}
+
+/// Wald's test, generic over the scalar. `w` holds the record's floats in the order
+/// `n_u, n_v, n_d, b_nu, b_nv, b_d, c_nu, c_nv, c_d`; `k` its axis.
+// Negated comparisons on purpose: a NaN must fail each test, as in the accepted interval
+// `tmin < t < tmax`.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[inline(always)]
+pub fn wald_exit<R: Real>(
+    w: &[R; 9],
+    k: u32,
+    o: Vec3<R>,
+    d: Vec3<R>,
+    tmin: R,
+    tmax: R,
+) -> Result<(R, R, R), Exit> {
     const MOD3: [usize; 5] = [0, 1, 2, 0, 1];
-    let k = w.k as usize;
+    let (zero, one) = (R::from_f32(0.0), R::from_f32(1.0));
+    let k = k as usize;
     if k > 2 {
-        return None;
+        return Err(wald_exit::DEGENERATE);
     }
+    let [n_u, n_v, n_d, b_nu, b_nv, b_d, c_nu, c_nv, c_d] = *w;
     let (ku, kv) = (MOD3[k + 1], MOD3[k + 2]);
-    let (o, d) = (ray.origin, ray.direction);
-    let denom = d[k] + w.n_u * d[ku] + w.n_v * d[kv];
-    if denom == 0.0 {
-        return None;
+    let denom = d[k] + n_u * d[ku] + n_v * d[kv];
+    if denom == zero {
+        return Err(wald_exit::PARALLEL);
     }
-    let nd = 1.0 / denom;
-    let t = (w.n_d - o[k] - w.n_u * o[ku] - w.n_v * o[kv]) * nd;
-    if !(t > tmin && t < tmax) {
-        return None;
+    let nd = one / denom;
+    let t = (n_d - o[k] - n_u * o[ku] - n_v * o[kv]) * nd;
+    if !(t > tmin) {
+        return Err(wald_exit::T_LOW);
+    }
+    if !(t < tmax) {
+        return Err(wald_exit::T_HIGH);
     }
     let hu = o[ku] + t * d[ku];
     let hv = o[kv] + t * d[kv];
-    let u = hu * w.b_nu + hv * w.b_nv + w.b_d;
-    if u < 0.0 {
-        return None;
+    let u = hu * b_nu + hv * b_nv + b_d;
+    if u < zero {
+        return Err(wald_exit::U_LOW);
     }
-    let v = hu * w.c_nu + hv * w.c_nv + w.c_d;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
+    let v = hu * c_nu + hv * c_nv + c_d;
+    if v < zero {
+        return Err(wald_exit::V_LOW);
     }
-    Some(TriHit { t, u, v })
+    if u + v > one {
+        return Err(wald_exit::UV_HIGH);
+    }
+    Ok((t, u, v))
 }
 
 #[cfg(test)]

@@ -47,7 +47,7 @@
 
 use super::{Data, NONE, Query, Step, is_left, sibling};
 use crate::counters::RayCounters;
-use crate::kernels::{RayBox, TriKernel, slab_test};
+use crate::kernels::{HIT, RayBox, TriKernel, slab_test};
 use crate::traverse::SlotHit;
 use rtsim_core::{Ray, Vec3};
 
@@ -401,14 +401,15 @@ pub fn step<K: TriKernel>(d: &Data<'_, K>, s: &mut State, c: &mut RayCounters) -
             let leaf = &d.nodes[s.node as usize];
             let slot = leaf.index + s.offset();
             c.tri_tests += 1;
-            let hit = match K::intersect(&d.tris[slot as usize], &s.ray(), s.tmin, s.t) {
-                Some(h) => {
+            let exit = match K::test(&d.tris[slot as usize], &s.ray(), s.tmin, s.t) {
+                Ok(h) => {
                     s.t = h.t;
                     s.slot = slot;
-                    true
+                    HIT
                 }
-                None => false,
+                Err(e) => e,
             };
+            let hit = exit == HIT;
             if hit && s.flags & ANY_BIT != 0 && d.opts.early_exit {
                 s.set_phase(Phase::Done);
             } else if s.offset() + 1 >= leaf.count {
@@ -416,7 +417,7 @@ pub fn step<K: TriKernel>(d: &Data<'_, K>, s: &mut State, c: &mut RayCounters) -
             } else {
                 s.set_offset(s.offset() + 1);
             }
-            Step::Triangle { slot, hit }
+            Step::Triangle { slot, hit, exit }
         }
         Phase::Up => {
             if s.node == 0 {

@@ -71,8 +71,10 @@ pub enum Step {
     /// (a closer hit was found since it was pushed). `bit-stack` pops a bit (`depth` is
     /// [`NONE`]); `node` is then the parent the traversal moves up to.
     Pop { node: u32, depth: u32, culled: bool },
-    /// Fetched the triangle record at BVH slot `slot` and tested the ray against it.
-    Triangle { slot: u32, hit: bool },
+    /// Fetched the triangle record at BVH slot `slot` and tested the ray against it; `exit`
+    /// says which way the test ended (`kernels::HIT` or the kernel's numbered miss), which
+    /// fixes the operations it ran (`crate::ops`).
+    Triangle { slot: u32, hit: bool, exit: u8 },
     /// `bit-stack`: read `node`'s parent pointer to move up the tree.
     Parent { node: u32, parent: u32 },
     /// `bit-stack`: on the way up, fetched and tested again the box of `node`, the sibling of

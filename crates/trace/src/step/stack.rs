@@ -16,7 +16,7 @@
 
 use super::{Data, Query, Step};
 use crate::counters::RayCounters;
-use crate::kernels::{RayBox, TriKernel, slab_test};
+use crate::kernels::{HIT, RayBox, TriKernel, slab_test};
 use crate::traverse::SlotHit;
 use rtsim_core::Ray;
 
@@ -180,8 +180,9 @@ pub fn step<K: TriKernel>(d: &Data<'_, K>, s: &mut State, c: &mut RayCounters) -
         Phase::Triangles => {
             let slot = s.slot;
             c.tri_tests += 1;
-            let h = K::intersect(&d.tris[slot as usize], &s.ray, s.ray.tmin, s.hit.t);
-            if let Some(h) = h {
+            let res = K::test(&d.tris[slot as usize], &s.ray, s.ray.tmin, s.hit.t);
+            let exit = res.err().unwrap_or(HIT);
+            if let Ok(h) = res {
                 s.hit = SlotHit {
                     t: h.t,
                     slot,
@@ -190,7 +191,11 @@ pub fn step<K: TriKernel>(d: &Data<'_, K>, s: &mut State, c: &mut RayCounters) -
                 };
                 if s.any && d.opts.early_exit {
                     s.phase = Phase::Done;
-                    return Step::Triangle { slot, hit: true };
+                    return Step::Triangle {
+                        slot,
+                        hit: true,
+                        exit,
+                    };
                 }
             }
             s.slot += 1;
@@ -199,7 +204,8 @@ pub fn step<K: TriKernel>(d: &Data<'_, K>, s: &mut State, c: &mut RayCounters) -
             }
             Step::Triangle {
                 slot,
-                hit: h.is_some(),
+                hit: exit == HIT,
+                exit,
             }
         }
         Phase::Pop => {
