@@ -25,7 +25,7 @@ pub mod stats;
 
 pub use build::{BuildError, MAX_TRIANGLES, build, build_from_boxes};
 pub use config::{Builder, BvhConfig, MemoryLayoutConfig, NodeOrder};
-pub use flat::{Bvh, NO_PARENT, Node};
+pub use flat::{Bvh, InvariantError, NO_PARENT, Node};
 pub use memory::{
     ImageParts, LineSpan, MemoryImage, MemoryImageError, Placement, Region, RegionBytes,
     lines_touched,
