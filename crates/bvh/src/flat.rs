@@ -201,7 +201,11 @@ impl Bvh {
                 }
                 let (start, end) = (n.index as usize, n.index as usize + n.count as usize);
                 if end > slot_covered.len() {
-                    return Err(E::LeafSlotsOutOfRange { node: i, start, end });
+                    return Err(E::LeafSlotsOutOfRange {
+                        node: i,
+                        start,
+                        end,
+                    });
                 }
                 let mut b = Aabb::EMPTY;
                 for slot in start..end {
@@ -334,7 +338,10 @@ mod tests {
         b.nodes[0].bounds.max.y += 1.0; // parent not the union of its children
         let e = b.check_invariants(&tris, &cfg).unwrap_err();
         assert_eq!(e, InvariantError::NotUnionOfChildren { node: 0 });
-        assert_eq!(e.to_string(), "node 0: box is not the union of its children");
+        assert_eq!(
+            e.to_string(),
+            "node 0: box is not the union of its children"
+        );
 
         let mut b = good.clone();
         b.nodes[0].index = 2; // the pair would start at an even index
@@ -363,9 +370,7 @@ mod tests {
         b.nodes.truncate(1);
         b.nodes[0] = leaf(good.nodes[0].bounds, 0, 2);
         assert_eq!(
-            b.check_invariants(&tris, &one)
-                .unwrap_err()
-                .to_string(),
+            b.check_invariants(&tris, &one).unwrap_err().to_string(),
             "leaf 0 holds 2 triangles > 1"
         );
         b.check_invariants(&tris, &cfg).unwrap();
