@@ -22,15 +22,20 @@ pub mod flat;
 mod flatten;
 pub mod memory;
 pub mod stats;
+pub mod treelet;
 
 pub use build::{BuildError, MAX_TRIANGLES, build, build_from_boxes};
-pub use config::{Builder, BvhConfig, MemoryLayoutConfig, NodeOrder};
+pub use config::{Builder, BvhConfig, Layout, MemoryLayoutConfig, NodeOrder, RowCheck};
 pub use flat::{Bvh, InvariantError, NO_PARENT, Node};
 pub use memory::{
-    ImageParts, LineSpan, MemoryImage, MemoryImageError, Placement, Region, RegionBytes,
-    lines_touched,
+    ImageExtras, ImageParts, LineSpan, MemoryImage, MemoryImageError, Placement, RecordKind,
+    RecordSet, Region, RegionBytes, SceneData, lines_touched,
 };
 pub use stats::{BvhStats, sah_cost};
+pub use treelet::{
+    RowFinding, TreeletError, TreeletInfo, TreeletKind, TreeletSummary, Treelets, check_rows,
+    enforce_row_check,
+};
 
 use rtsim_core::Vec3;
 
