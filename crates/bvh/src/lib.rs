@@ -11,6 +11,11 @@
 //!   address in the simulated address space. This is the interface between the functional
 //!   tracer and the hardware models: caches and DRAM see exactly these addresses. Record
 //!   layouts and address rules: `docs/MEMORY_IMAGE.md`.
+//! - [`Treelets`] (`treelet`, `memory.layout = "treelets"`): STRaTA's node treelets (grown
+//!   by sibling pairs in order of surface area) and triangle treelets, each contiguous and
+//!   row-aligned, and [`check_rows`] against a DRAM row size; the memory image places records
+//!   treelet by treelet. [`ImageExtras`] adds the regions a chip reads or writes besides the
+//!   BVH (Wald records, materials, framebuffer, path state).
 //! - [`BvhStats`]: SAH cost, node and leaf counts, depth, triangles per leaf, build time and
 //!   image sizes (`rtsim bvh-stats`).
 //!
