@@ -453,7 +453,7 @@ pub fn check_rows(treelets: &Treelets, row_bytes: u64) -> Vec<RowFinding> {
         .enumerate()
         .filter_map(|(id, t)| {
             let (touched, needed) = (t.rows_touched(row_bytes), t.rows_needed(row_bytes));
-            (touched > needed).then(|| RowFinding {
+            (touched > needed).then_some(RowFinding {
                 treelet: id as u32,
                 kind: t.kind,
                 base: t.base,
