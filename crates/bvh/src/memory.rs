@@ -209,6 +209,8 @@ impl ImageExtras {
         width: u32,
         height: u32,
     ) -> Self {
+        // Saturating only to stay a u32: a framebuffer past 2^32 pixels is refused by
+        // `MemoryImage::build` (and the workload caps images at 64 M pixels).
         let pixels = (width as u64 * height as u64).min(u32::MAX as u64) as u32;
         ImageExtras {
             wald,
