@@ -19,7 +19,7 @@ pub enum Command {
     /// Write the scene's triangles in hit-index order (see README: tris.bin).
     ExportTriangles(ExportArgs),
     /// Build the BVH and print its statistics.
-    BvhStats(SceneArgs),
+    BvhStats(BvhStatsArgs),
     /// List built-in and descriptor scenes.
     Scenes(ScenesArgs),
     /// Measure tracing throughput (Mrays/s) and BVH build time.
@@ -93,6 +93,16 @@ pub struct ExportArgs {
     /// Output file (u64 count, then 9 f32 per triangle).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
+}
+
+#[derive(Debug, Args, Clone)]
+pub struct BvhStatsArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// DRAM preset whose address mapping the treelet row check uses (see `rtsim dram
+    /// --list-presets`).
+    #[arg(long, value_name = "PRESET", default_value = "gddr5-trax")]
+    pub dram_preset: String,
 }
 
 #[derive(Debug, Args, Clone)]

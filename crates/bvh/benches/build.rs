@@ -2,7 +2,7 @@
 //!
 //! Single-threaded (the target: binned Sibenik under 0.5 s on one core) and on all
 //! cores, for both builders, on a generated sphere and on Sibenik when the shared scenes are
-//! present (read with the tests' throwaway OBJ reader until the scene loader lands).
+//! present (read with the scene loader).
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -14,8 +14,8 @@ use std::time::Duration;
 
 fn bench(c: &mut Criterion) {
     let mut inputs = vec![("sphere-120k".to_string(), support::sphere(250, 240))];
-    if let Some((tris, _)) = support::load_obj_zst("sibenik/sibenik.obj.zst") {
-        inputs.push(("sibenik".into(), tris));
+    if let Some(scene) = support::shared_scene("sibenik") {
+        inputs.push(("sibenik".into(), scene.triangles));
     }
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)

@@ -112,6 +112,65 @@ pub const TRIANGLE_BYTES_MIN: u32 = 36;
 /// Largest record of either kind (assumed: four 64-byte lines; anything larger is a typo).
 pub const RECORD_BYTES_MAX: u32 = 256;
 
+/// How node and triangle records are placed (`memory.layout`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Layout {
+    /// Records in array order, one region per kind (default).
+    Linear,
+    /// STRaTA's treelets (paper §3.1, after Aila & Karras 2010): node treelets and triangle
+    /// treelets of at most `memory.treelet_bytes`, each contiguous and aligned to
+    /// `memory.region_alignment` (see `treelet`).
+    Treelets,
+}
+
+/// What a treelet layout's DRAM row check does with a treelet that spans more DRAM rows than
+/// its size needs (`memory.treelet_row_check`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RowCheck {
+    /// Report the findings and go on (default).
+    Warn,
+    /// Refuse the layout, naming the first offending treelet.
+    Strict,
+}
+
+/// Node treelet budget by default: the TRaX L1 data cache, 16 KB per TM (STRaTA paper §3.1:
+/// "we assign treelets to be exactly the size of an L1 cache"; Table 2 / DESIGN.md §3).
+pub const TREELET_BYTES_DEFAULT: u64 = 16 * 1024;
+/// Smallest treelet budget: one line (it must also hold a sibling pair, 2 × `node_bytes`,
+/// checked separately).
+pub const TREELET_BYTES_MIN: u64 = 64;
+/// Largest treelet budget (assumed: 64 MiB, four times the largest stream memory STRaTA's
+/// Figures 5–6 sweep; anything larger is a typo).
+pub const TREELET_BYTES_MAX: u64 = 1 << 26;
+/// Treelet budgets are whole cache lines (TRaX's 64-byte line, DESIGN.md §3).
+pub const TREELET_BYTES_GRANULE: u64 = 64;
+/// Wald's precomputed triangle data for SGRT's IST, as the caller supplies it: ten 4-byte
+/// words `n_u n_v n_d k b_nu b_nv b_d c_nu c_nv c_d` (`rtsim_trace`'s `WaldTri`, in field
+/// order).
+pub const WALD_INPUT_BYTES: u32 = 40;
+/// Bytes of a Wald record holding fields: the ten words laid out as Wald's `TriAccel` (PhD
+/// thesis, 2004, §7.1) in three 16-byte quarters — `n_u n_v n_d k`, `b_nu b_nv b_d` + the
+/// triangle id, `c_nu c_nv c_d` — so a fetch reads 44 bytes.
+pub const WALD_DATA_BYTES: u32 = 44;
+/// Wald record stride: 48 bytes, `TriAccel`'s size (the last word is padding).
+pub const WALD_RECORD_BYTES: u32 = 48;
+/// Material record: albedo and emission, RGB `f32` each…
+pub const MATERIAL_DATA_BYTES: u32 = 24;
+/// …padded to 32 so two materials share a 64-byte line and none straddles one (assumed).
+pub const MATERIAL_RECORD_BYTES: u32 = 32;
+/// Framebuffer pixel: accumulated radiance, RGB `f32`…
+pub const PIXEL_DATA_BYTES: u32 = 12;
+/// …padded to 16 so four pixels fill a line (assumed: aligned vector stores).
+pub const PIXEL_RECORD_BYTES: u32 = 16;
+/// Fields of a spilled path state record (see `docs/MEMORY_IMAGE.md`, "Path state").
+pub const PATH_STATE_DATA_BYTES: u32 = 56;
+/// Path state record by default: 64, one line per path (assumed: one fetch per spill/fill).
+pub const PATH_STATE_BYTES_DEFAULT: u32 = 64;
+/// Most path slots: the workload's 64 M-pixel image cap, one path per pixel.
+pub const PATH_SLOTS_MAX: u32 = 1 << 26;
+
 /// How the BVH is laid out in the simulated address space (see `MemoryImage` and
 /// `docs/MEMORY_IMAGE.md`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -142,8 +201,30 @@ pub struct MemoryLayoutConfig {
     /// pair slot and every sibling pair starts at a multiple of 2 × `node_bytes` from the
     /// region base: with 32-byte nodes, each sibling pair is exactly one 64-byte line (SimTRaX
     /// `BVH::LoadIntoMemory`: "root node starts mid-line, so that children are cache
-    /// line-aligned"). Default true.
+    /// line-aligned"). Default true. Must stay true with `layout = "treelets"`, which grows
+    /// treelets by aligned sibling pairs.
     pub align_sibling_pairs: bool,
+    /// Placement of node and triangle records: `linear` (default; array order) or `treelets`
+    /// (STRaTA §3.1: node and triangle treelets of at most `treelet_bytes`, each contiguous
+    /// and aligned to `region_alignment`; treelet ids in node records with parent pointers).
+    /// The BVH the tracer traverses is the same; only addresses change.
+    pub layout: Layout,
+    /// Largest treelet in bytes, padding included. Default 16384, the TRaX L1 (STRaTA §3.1:
+    /// treelets are the L1's size, "two DRAM rows"). A multiple of 64 in 64..=67108864, and
+    /// at least one sibling pair (2 × the node record).
+    /// Smaller treelets mean more of them and more ray-buffer switches; larger ones no longer
+    /// fit the L1. Used only with `layout = "treelets"`.
+    pub treelet_bytes: u64,
+    /// What the DRAM row check does with a treelet that spans more rows than its size needs:
+    /// `warn` (default; report and go on) or `strict` (refuse the layout, with the reason).
+    pub treelet_row_check: RowCheck,
+    /// In-flight path slots in the spilled path state region. Default: unset, one per pixel of
+    /// the workload image (a software renderer's count); a STRaTA chip sets its stream
+    /// memory's ray capacity. Range 1..=67108864.
+    pub path_slots: Option<u32>,
+    /// Bytes per spilled path state record. Default 64 (one line; the fields take 56). A
+    /// multiple of 4 in 56..=256; more is padding.
+    pub path_state_bytes: u32,
 }
 
 impl Default for MemoryLayoutConfig {
@@ -156,6 +237,11 @@ impl Default for MemoryLayoutConfig {
             triangle_bytes: TRIANGLE_BYTES_DEFAULT,
             region_alignment: 8192,
             align_sibling_pairs: true,
+            layout: Layout::Linear,
+            treelet_bytes: TREELET_BYTES_DEFAULT,
+            treelet_row_check: RowCheck::Warn,
+            path_slots: None,
+            path_state_bytes: PATH_STATE_BYTES_DEFAULT,
         }
     }
 }
@@ -216,6 +302,43 @@ impl Validate for MemoryLayoutConfig {
                     "{:#x} is not a multiple of memory.region_alignment ({a})",
                     self.base_address
                 ),
+            ));
+        }
+        let b = self.treelet_bytes;
+        if !(TREELET_BYTES_MIN..=TREELET_BYTES_MAX).contains(&b) || b % TREELET_BYTES_GRANULE != 0 {
+            return Err(ConfigError::range(
+                "memory.treelet_bytes",
+                b,
+                format!(
+                    "a multiple of {TREELET_BYTES_GRANULE} in \
+                     {TREELET_BYTES_MIN}..={TREELET_BYTES_MAX}"
+                ),
+            ));
+        }
+        let pair = 2 * self.resolved_node_bytes() as u64;
+        if b < pair {
+            return Err(ConfigError::range(
+                "memory.treelet_bytes",
+                b,
+                format!("at least one sibling pair, 2 × memory.node_bytes = {pair}"),
+            ));
+        }
+        if self.layout == Layout::Treelets && !self.align_sibling_pairs {
+            return Err(ConfigError::key(
+                "memory.align_sibling_pairs",
+                "must be true with memory.layout = \"treelets\" (treelets grow by aligned \
+                 sibling pairs)",
+            ));
+        }
+        if let Some(n) = self.path_slots {
+            check_range("memory.path_slots", n, 1, PATH_SLOTS_MAX)?;
+        }
+        let p = self.path_state_bytes;
+        if !(PATH_STATE_DATA_BYTES..=RECORD_BYTES_MAX).contains(&p) || p % 4 != 0 {
+            return Err(ConfigError::range(
+                "memory.path_state_bytes",
+                p,
+                format!("a multiple of 4 in {PATH_STATE_DATA_BYTES}..={RECORD_BYTES_MAX}"),
             ));
         }
         Ok(())
@@ -313,6 +436,59 @@ mod tests {
             ..Default::default()
         };
         assert!(err(&c).contains("memory.base_address"));
+        for b in [0, 100, 16384 + 32, (1 << 26) + 64] {
+            let c = MemoryLayoutConfig {
+                treelet_bytes: b,
+                ..Default::default()
+            };
+            let e = err(&c);
+            assert!(
+                e.contains("memory.treelet_bytes") && e.contains("64..=67108864"),
+                "{b}: {e}"
+            );
+        }
+        let c = MemoryLayoutConfig {
+            node_bytes: Some(256),
+            treelet_bytes: 448,
+            ..Default::default()
+        };
+        assert!(
+            err(&c).contains("2 × memory.node_bytes = 512"),
+            "{}",
+            err(&c)
+        );
+        let c = MemoryLayoutConfig {
+            layout: Layout::Treelets,
+            align_sibling_pairs: false,
+            ..Default::default()
+        };
+        assert!(err(&c).contains("memory.align_sibling_pairs"));
+        let c = MemoryLayoutConfig {
+            path_slots: Some(0),
+            ..Default::default()
+        };
+        assert!(err(&c).contains("memory.path_slots"));
+        for p in [52, 66, 260] {
+            let c = MemoryLayoutConfig {
+                path_state_bytes: p,
+                ..Default::default()
+            };
+            assert!(err(&c).contains("memory.path_state_bytes") && err(&c).contains("56..=256"));
+        }
+    }
+
+    #[test]
+    fn treelet_keys_parse_from_toml() {
+        let c: MemoryLayoutConfig = toml::from_str(
+            "layout = \"treelets\"\ntreelet_bytes = 8192\ntreelet_row_check = \"strict\"",
+        )
+        .unwrap();
+        assert_eq!(
+            (c.layout, c.treelet_bytes, c.treelet_row_check),
+            (Layout::Treelets, 8192, RowCheck::Strict)
+        );
+        c.validate().unwrap();
+        assert!(toml::from_str::<MemoryLayoutConfig>("layout = \"octree\"").is_err());
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! The flat BVH that traversal reads: [`Node`] and [`Bvh`], plus structural queries (parents,
-//! depths) and an invariant check used by tests and `rtsim bvh-stats`.
+//! depths) and an invariant check ([`InvariantError`]) used by tests and `rtsim bvh-stats`.
 
 use crate::config::BvhConfig;
 use rtsim_core::{Aabb, Vec3};
@@ -28,6 +28,62 @@ impl Node {
 
 /// `parents()[root]`: the root has no parent.
 pub const NO_PARENT: u32 = u32::MAX;
+
+/// The first structural violation [`Bvh::check_invariants`] finds; the message names the node,
+/// slot or triangle.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum InvariantError {
+    #[error("empty scene but non-empty BVH")]
+    NodesWithoutTriangles,
+    #[error("no nodes for a non-empty scene")]
+    NoNodes,
+    #[error("{slots} triangle slots for {triangles} triangles")]
+    SlotCount { slots: usize, triangles: usize },
+    #[error("slot {slot} holds triangle {triangle}, out of range")]
+    TriangleOutOfRange { slot: usize, triangle: u32 },
+    #[error("triangle {triangle} appears in two slots")]
+    TriangleInTwoSlots { triangle: u32 },
+    #[error("node {node} at depth {depth} > {max_depth}")]
+    TooDeep {
+        node: usize,
+        depth: u32,
+        max_depth: u32,
+    },
+    #[error("leaf {node} holds {count} triangles > {max_leaf_size}")]
+    LeafTooLarge {
+        node: usize,
+        count: u32,
+        max_leaf_size: u32,
+    },
+    #[error("leaf {node} slots {start}..{end} out of range")]
+    LeafSlotsOutOfRange {
+        node: usize,
+        start: usize,
+        end: usize,
+    },
+    #[error("slot {slot} in two leaves")]
+    SlotInTwoLeaves { slot: usize },
+    #[error("leaf {node} box {stored:?} is not the bounds of its triangles {actual:?}")]
+    LeafBox {
+        node: usize,
+        stored: Aabb,
+        actual: Aabb,
+    },
+    #[error("node {node} has children {left},{} out of order", left + 1)]
+    ChildrenOutOfOrder { node: usize, left: usize },
+    #[error("node {node}: sibling pair starts at even index {left}")]
+    PairAtEvenIndex { node: usize, left: usize },
+    #[error("node {node}: a child box leaves the parent box")]
+    ChildOutsideParent { node: usize },
+    #[error("node {node}: box is not the union of its children")]
+    NotUnionOfChildren { node: usize },
+    #[error("node {node} reached twice")]
+    ReachedTwice { node: usize },
+    #[error("node {node} unreachable from the root")]
+    Unreachable { node: usize },
+    #[error("slot {slot} in no leaf")]
+    SlotInNoLeaf { slot: usize },
+}
 
 /// A built BVH. Node 0 is the root. An empty scene has no nodes.
 #[derive(Clone, Debug, Default)]
@@ -88,37 +144,37 @@ impl Bvh {
     /// `config.max_leaf_size`, depth within `config.max_depth`, leaves covering every slot
     /// exactly once, and `prim_ids` a permutation of the scene's triangle ids.
     ///
-    /// Returns the first violation found, as a sentence naming the node.
+    /// Returns the first violation found; its message names the node.
     pub fn check_invariants(
         &self,
         triangles: &[[Vec3; 3]],
         config: &BvhConfig,
-    ) -> Result<(), String> {
+    ) -> Result<(), InvariantError> {
+        use InvariantError as E;
         let n_nodes = self.nodes.len();
         if triangles.is_empty() {
             return if n_nodes == 0 && self.prim_ids.is_empty() {
                 Ok(())
             } else {
-                Err("empty scene but non-empty BVH".into())
+                Err(E::NodesWithoutTriangles)
             };
         }
         if n_nodes == 0 {
-            return Err("no nodes for a non-empty scene".into());
+            return Err(E::NoNodes);
         }
         if self.prim_ids.len() != triangles.len() {
-            return Err(format!(
-                "{} triangle slots for {} triangles",
-                self.prim_ids.len(),
-                triangles.len()
-            ));
+            return Err(E::SlotCount {
+                slots: self.prim_ids.len(),
+                triangles: triangles.len(),
+            });
         }
         let mut seen_id = vec![false; triangles.len()];
         for (slot, &id) in self.prim_ids.iter().enumerate() {
             let Some(s) = seen_id.get_mut(id as usize) else {
-                return Err(format!("slot {slot} holds triangle {id}, out of range"));
+                return Err(E::TriangleOutOfRange { slot, triangle: id });
             };
             if std::mem::replace(s, true) {
-                return Err(format!("triangle {id} appears in two slots"));
+                return Err(E::TriangleInTwoSlots { triangle: id });
             }
         }
         let mut reached = vec![false; n_nodes];
@@ -129,62 +185,72 @@ impl Bvh {
         while let Some((i, depth)) = stack.pop() {
             let n = &self.nodes[i];
             if depth > config.max_depth {
-                return Err(format!("node {i} at depth {depth} > {}", config.max_depth));
+                return Err(E::TooDeep {
+                    node: i,
+                    depth,
+                    max_depth: config.max_depth,
+                });
             }
             if n.is_leaf() {
                 if n.count > config.max_leaf_size {
-                    return Err(format!(
-                        "leaf {i} holds {} triangles > {}",
-                        n.count, config.max_leaf_size
-                    ));
+                    return Err(E::LeafTooLarge {
+                        node: i,
+                        count: n.count,
+                        max_leaf_size: config.max_leaf_size,
+                    });
                 }
-                let (s, e) = (n.index as usize, n.index as usize + n.count as usize);
-                if e > slot_covered.len() {
-                    return Err(format!("leaf {i} slots {s}..{e} out of range"));
+                let (start, end) = (n.index as usize, n.index as usize + n.count as usize);
+                if end > slot_covered.len() {
+                    return Err(E::LeafSlotsOutOfRange {
+                        node: i,
+                        start,
+                        end,
+                    });
                 }
                 let mut b = Aabb::EMPTY;
-                for slot in s..e {
+                for slot in start..end {
                     if std::mem::replace(&mut slot_covered[slot], true) {
-                        return Err(format!("slot {slot} in two leaves"));
+                        return Err(E::SlotInTwoLeaves { slot });
                     }
                     for &v in &triangles[self.prim_ids[slot] as usize] {
                         b.grow(v);
                     }
                 }
                 if b != n.bounds {
-                    return Err(format!(
-                        "leaf {i} box {:?} is not the bounds of its triangles {b:?}",
-                        n.bounds
-                    ));
+                    return Err(E::LeafBox {
+                        node: i,
+                        stored: n.bounds,
+                        actual: b,
+                    });
                 }
             } else {
                 let c = n.index as usize;
                 if c <= i || c + 1 >= n_nodes {
-                    return Err(format!("node {i} has children {c},{} out of order", c + 1));
+                    return Err(E::ChildrenOutOfOrder { node: i, left: c });
                 }
                 if c % 2 == 0 {
-                    return Err(format!("node {i}: sibling pair starts at even index {c}"));
+                    return Err(E::PairAtEvenIndex { node: i, left: c });
                 }
                 let (l, r) = (&self.nodes[c], &self.nodes[c + 1]);
                 if !n.bounds.contains_box(&l.bounds) || !n.bounds.contains_box(&r.bounds) {
-                    return Err(format!("node {i}: a child box leaves the parent box"));
+                    return Err(E::ChildOutsideParent { node: i });
                 }
                 if l.bounds.union(r.bounds) != n.bounds {
-                    return Err(format!("node {i}: box is not the union of its children"));
+                    return Err(E::NotUnionOfChildren { node: i });
                 }
                 for k in [c, c + 1] {
                     if std::mem::replace(&mut reached[k], true) {
-                        return Err(format!("node {k} reached twice"));
+                        return Err(E::ReachedTwice { node: k });
                     }
                     stack.push((k, depth + 1));
                 }
             }
         }
-        if let Some(k) = reached.iter().position(|&r| !r) {
-            return Err(format!("node {k} unreachable from the root"));
+        if let Some(node) = reached.iter().position(|&r| !r) {
+            return Err(E::Unreachable { node });
         }
-        if let Some(s) = slot_covered.iter().position(|&c| !c) {
-            return Err(format!("slot {s} in no leaf"));
+        if let Some(slot) = slot_covered.iter().position(|&c| !c) {
+            return Err(E::SlotInNoLeaf { slot });
         }
         Ok(())
     }
@@ -247,33 +313,54 @@ mod tests {
 
         let mut b = good.clone();
         b.prim_ids = vec![0, 0];
-        assert!(
-            b.check_invariants(&tris, &cfg)
-                .unwrap_err()
-                .contains("two slots")
-        );
+        let e = b.check_invariants(&tris, &cfg).unwrap_err();
+        assert_eq!(e, InvariantError::TriangleInTwoSlots { triangle: 0 });
+        assert_eq!(e.to_string(), "triangle 0 appears in two slots");
 
         let mut b = good.clone();
         b.nodes[1].bounds.max.x += 1.0;
-        assert!(b.check_invariants(&tris, &cfg).is_err());
+        let e = b.check_invariants(&tris, &cfg).unwrap_err();
+        assert!(matches!(e, InvariantError::LeafBox { node: 1, .. }), "{e}");
+        assert!(e.to_string().starts_with("leaf 1 box"), "{e}");
 
         let mut b = good.clone();
-        b.nodes[2].index = 0; // both leaves claim slot 0
-        assert!(b.check_invariants(&tris, &cfg).is_err());
+        b.nodes[2].index = 0; // both leaves claim slot 0; leaf 2 is checked first
+        let e = b.check_invariants(&tris, &cfg).unwrap_err();
+        assert!(matches!(e, InvariantError::LeafBox { node: 2, .. }), "{e}");
+        b.nodes[2].bounds = b.nodes[1].bounds;
+        b.nodes[0].bounds = b.nodes[1].bounds;
+        assert_eq!(
+            b.check_invariants(&tris, &cfg),
+            Err(InvariantError::SlotInTwoLeaves { slot: 0 })
+        );
 
         let mut b = good.clone();
         b.nodes[0].bounds.max.y += 1.0; // parent not the union of its children
-        assert!(
-            b.check_invariants(&tris, &cfg)
-                .unwrap_err()
-                .contains("union")
+        let e = b.check_invariants(&tris, &cfg).unwrap_err();
+        assert_eq!(e, InvariantError::NotUnionOfChildren { node: 0 });
+        assert_eq!(
+            e.to_string(),
+            "node 0: box is not the union of its children"
+        );
+
+        let mut b = good.clone();
+        b.nodes[0].index = 2; // the pair would start at an even index
+        b.nodes.push(b.nodes[2]);
+        assert_eq!(
+            b.check_invariants(&tris, &cfg),
+            Err(InvariantError::PairAtEvenIndex { node: 0, left: 2 })
         );
 
         let shallow = BvhConfig {
             max_depth: 0,
             ..Default::default()
         };
-        assert!(good.check_invariants(&tris, &shallow).is_err());
+        assert_eq!(
+            good.check_invariants(&tris, &shallow)
+                .unwrap_err()
+                .to_string(),
+            "node 2 at depth 1 > 0"
+        );
 
         let one = BvhConfig {
             max_leaf_size: 1,
@@ -282,10 +369,9 @@ mod tests {
         let mut b = good.clone();
         b.nodes.truncate(1);
         b.nodes[0] = leaf(good.nodes[0].bounds, 0, 2);
-        assert!(
-            b.check_invariants(&tris, &one)
-                .unwrap_err()
-                .contains("holds 2")
+        assert_eq!(
+            b.check_invariants(&tris, &one).unwrap_err().to_string(),
+            "leaf 0 holds 2 triangles > 1"
         );
         b.check_invariants(&tris, &cfg).unwrap();
     }

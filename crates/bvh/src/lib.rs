@@ -11,6 +11,11 @@
 //!   address in the simulated address space. This is the interface between the functional
 //!   tracer and the hardware models: caches and DRAM see exactly these addresses. Record
 //!   layouts and address rules: `docs/MEMORY_IMAGE.md`.
+//! - [`Treelets`] (`treelet`, `memory.layout = "treelets"`): STRaTA's node treelets (grown
+//!   by sibling pairs in order of surface area) and triangle treelets, each contiguous and
+//!   row-aligned, and [`check_rows`] against a DRAM row size; the memory image places records
+//!   treelet by treelet. [`ImageExtras`] adds the regions a chip reads or writes besides the
+//!   BVH (Wald records, materials, framebuffer, path state).
 //! - [`BvhStats`]: SAH cost, node and leaf counts, depth, triangles per leaf, build time and
 //!   image sizes (`rtsim bvh-stats`).
 //!
@@ -22,15 +27,20 @@ pub mod flat;
 mod flatten;
 pub mod memory;
 pub mod stats;
+pub mod treelet;
 
 pub use build::{BuildError, MAX_TRIANGLES, build, build_from_boxes};
-pub use config::{Builder, BvhConfig, MemoryLayoutConfig, NodeOrder};
-pub use flat::{Bvh, NO_PARENT, Node};
+pub use config::{Builder, BvhConfig, Layout, MemoryLayoutConfig, NodeOrder, RowCheck};
+pub use flat::{Bvh, InvariantError, NO_PARENT, Node};
 pub use memory::{
-    ImageParts, LineSpan, MemoryImage, MemoryImageError, Placement, Region, RegionBytes,
-    lines_touched,
+    ImageExtras, ImageParts, LineSpan, MemoryImage, MemoryImageError, Placement, RecordKind,
+    RecordSet, Region, RegionBytes, SceneData, lines_touched,
 };
 pub use stats::{BvhStats, sah_cost};
+pub use treelet::{
+    RowFinding, TreeletError, TreeletInfo, TreeletKind, TreeletSummary, Treelets, check_rows,
+    enforce_row_check,
+};
 
 use rtsim_core::Vec3;
 

@@ -1,6 +1,7 @@
 //! Real scenes (long; `cargo test --release -p rtsim-bvh -- --ignored`): invariants, quality
-//! and build time on the shared Sibenik and Conference meshes, read with the throwaway OBJ
-//! reader until the scene loader lands. Skipped (with a message) when the files are absent.
+//! and build time on the shared Sibenik and Conference meshes, read with the scene loader.
+//! Skipped (with a message) only when no scene directory is configured; a configured
+//! directory without the files fails.
 
 mod support;
 
@@ -17,16 +18,14 @@ fn one_thread<T: Send>(f: impl FnOnce() -> T + Send) -> T {
 }
 
 fn check_scene(rel: &str, expect_triangles: usize) {
-    let Some((tris, in_file)) = load_obj_zst(rel) else {
-        eprintln!("skipping: {rel} not found under {}", scene_dir().display());
+    let Some(scene) = shared_scene(rel) else {
         return;
     };
+    let tris = scene.triangles;
+    let dropped = (scene.report.dropped_degenerate + scene.report.dropped_non_finite) as usize;
+    let in_file = tris.len() + dropped;
     assert_eq!(in_file, expect_triangles, "{rel}");
-    println!(
-        "{rel}: {} triangles ({} zero-area dropped)",
-        tris.len(),
-        in_file - tris.len()
-    );
+    println!("{rel}: {} triangles ({dropped} dropped)", tris.len());
     let mut costs = Vec::new();
     for builder in [Builder::Binned, Builder::Sweep] {
         for max_depth in [64, 32] {
@@ -72,13 +71,13 @@ fn check_scene(rel: &str, expect_triangles: usize) {
 #[test]
 #[ignore = "reads shared scenes; long"]
 fn sibenik() {
-    check_scene("sibenik/sibenik.obj.zst", 75_284);
+    check_scene("sibenik", 75_284);
 }
 
 #[test]
 #[ignore = "reads shared scenes; long"]
 fn conference() {
-    check_scene("conference/conference.obj.zst", 331_179);
+    check_scene("conference", 331_179);
 }
 
 /// Issue 2 asks the sweep builder to be practical at Hairball scale (about 2.9 M triangles);

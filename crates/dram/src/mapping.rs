@@ -256,6 +256,26 @@ impl AddressMapper {
         &self.text
     }
 
+    /// Bytes of a contiguous, aligned address range that stay in one DRAM row: one channel,
+    /// rank, bank and row. These are the line offset and the column bits directly above it;
+    /// the first address bit of any other field ends the run. With `gddr5-trax`'s
+    /// `row:rank:bank:channel:column:offset` (128 columns of 64 B) it is 2^(6 + 7) = 8192: a
+    /// row-aligned 16 KB block is exactly two rows (on two channels). With a channel-interleaved
+    /// mapping (`row:column:rank:bank:channel:offset`) it is one line. Data laid out for row
+    /// locality (STRaTA's treelets) should be aligned to and sized in multiples of this.
+    pub fn row_run_bytes(&self) -> u64 {
+        let mut bits = self.line_shift;
+        let mut by_shift: Vec<&Slice> = self.slices.iter().collect();
+        by_shift.sort_by_key(|s| s.shift);
+        for s in by_shift {
+            if s.shift != bits || s.field != Field::Column {
+                break;
+            }
+            bits += s.width;
+        }
+        1u64 << bits
+    }
+
     /// The line-aligned address (offset bits cleared).
     #[inline]
     pub fn line_addr(&self, addr: u64) -> u64 {
@@ -372,6 +392,74 @@ mod tests {
         let row_stride = 1u64 << (6 + 7 + 4 + 4);
         let banks: Vec<u32> = (0..4).map(|r| m.decode(r * row_stride).bank).collect();
         assert_eq!(banks, [0, 1, 2, 3]);
+    }
+
+    /// The (channel, rank, bank, row) an address falls in: one DRAM row.
+    fn row_of(m: &AddressMapper, addr: u64) -> (u32, u32, u32, u32) {
+        let l = m.decode(addr);
+        (l.channel, l.rank, l.bank, l.row)
+    }
+
+    /// Walk every line of `span` bytes from 0 and check that `row_run_bytes` is exactly the
+    /// size of the aligned blocks whose lines share one DRAM row.
+    fn check_row_run(m: &AddressMapper, span: u64) -> u64 {
+        let run = m.row_run_bytes();
+        assert!(run >= 64 && run.is_power_of_two());
+        for addr in (0..span).step_by(64) {
+            let block = addr / run * run;
+            assert_eq!(
+                row_of(m, addr),
+                row_of(m, block),
+                "{}: {addr:#x} leaves the row of its {run}-byte block",
+                m.text()
+            );
+            if addr == block && addr > 0 {
+                assert_ne!(
+                    row_of(m, addr),
+                    row_of(m, addr - 64),
+                    "{}: the row continues past {run} bytes at {addr:#x}",
+                    m.text()
+                );
+            }
+        }
+        run
+    }
+
+    #[test]
+    fn row_run_matches_the_decoded_rows() {
+        // gddr5-trax: 128 lines of 64 B per row, the column field just above the offset.
+        let m = AddressMapper::new("row:rank:bank:channel:column:offset", false, &trax()).unwrap();
+        assert_eq!(check_row_run(&m, 1 << 20), 8192);
+        // A 16 KB block aligned to 8 KB: two rows, on channels 0 and 1.
+        let rows: std::collections::BTreeSet<_> =
+            (0..16384).step_by(64).map(|a| row_of(&m, a)).collect();
+        assert_eq!(rows.len(), 2);
+        // The XOR permutation only moves whole rows between banks.
+        let m = AddressMapper::new("row:rank:bank:channel:column:offset", true, &trax()).unwrap();
+        assert_eq!(check_row_run(&m, 1 << 22), 8192);
+        // Channel-interleaved lines: every line is in another row.
+        let m = AddressMapper::new("row:column:rank:bank:channel:offset", false, &trax()).unwrap();
+        assert_eq!(check_row_run(&m, 1 << 20), 64);
+        // Split columns: only the low slice (4 bits) is contiguous.
+        let m = AddressMapper::new(
+            "row:column(3):bank:channel:column(4):offset",
+            false,
+            &trax(),
+        )
+        .unwrap();
+        assert_eq!(check_row_run(&m, 1 << 20), 1024);
+    }
+
+    #[test]
+    fn row_run_of_every_preset() {
+        for p in crate::config::PRESETS {
+            let c = crate::config::preset_config(p.name).unwrap();
+            let m = AddressMapper::new(&c.mapping, c.bank_xor, &c.organisation).unwrap();
+            let run = check_row_run(&m, 1 << 21);
+            let row_bytes =
+                u64::from(c.organisation.columns) * u64::from(c.organisation.bus_width / 8);
+            assert!(run <= row_bytes, "{}: run {run} > row {row_bytes}", p.name);
+        }
     }
 
     #[test]

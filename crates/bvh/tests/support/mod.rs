@@ -1,11 +1,9 @@
-//! Test inputs: generated triangle sets and a throwaway reader for the shared OBJ scenes.
-//!
-//! THROWAWAY: `load_obj_zst` exists only until `rtsim_scene::load_scene` lands; it reads `v`
-//! and `f` lines (fan-triangulating polygons) and ignores everything else.
+//! Test inputs: generated triangle sets, and the shared scenes read with the real scene
+//! loader (`rtsim_scene::load_scene`).
 #![allow(dead_code)]
 
 use rtsim_core::{Pcg32, Vec3};
-use std::io::{BufRead, BufReader};
+use rtsim_scene::{Scene, SceneRequest, load_scene};
 use std::path::PathBuf;
 
 pub type Tri = [Vec3; 3];
@@ -89,55 +87,34 @@ pub fn same_centroid(n: usize) -> Vec<Tri> {
         .collect()
 }
 
-/// The shared scene directory: `$RTSIM_SCENE_DIR`, else `../shared/scenes` beside the
-/// repository.
-pub fn scene_dir() -> PathBuf {
+/// The shared scene directory, if one is configured: `$RTSIM_SCENE_DIR` when set (it must
+/// then hold the scenes), else `../shared/scenes` beside the repository when it exists.
+pub fn scene_dir() -> Option<PathBuf> {
     if let Some(d) = std::env::var_os("RTSIM_SCENE_DIR").filter(|d| !d.is_empty()) {
-        return PathBuf::from(d);
+        return Some(PathBuf::from(d));
     }
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes")
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes");
+    d.is_dir().then_some(d)
 }
 
-/// THROWAWAY OBJ reader (see the module docs): the triangles with non-zero area (the scene
-/// loader drops the others) and the number of triangles in the file. `None` if the file is
-/// missing.
-pub fn load_obj_zst(rel: &str) -> Option<(Vec<Tri>, usize)> {
-    let path = scene_dir().join(rel);
-    let file = std::fs::File::open(&path).ok()?;
-    let reader = BufReader::new(zstd::Decoder::new(file).expect("zstd stream"));
-    let mut verts: Vec<Vec3> = Vec::new();
-    let mut tris = Vec::new();
-    let mut in_file = 0;
-    for line in reader.lines() {
-        let line = line.expect("readable OBJ");
-        let mut it = line.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let c: Vec<f32> = it.take(3).map(|s| s.parse().expect("number")).collect();
-                verts.push(Vec3::new(c[0], c[1], c[2]));
-            }
-            Some("f") => {
-                let idx: Vec<usize> = it
-                    .map(|s| {
-                        let i: i64 = s.split('/').next().unwrap().parse().expect("index");
-                        if i < 0 {
-                            (verts.len() as i64 + i) as usize
-                        } else {
-                            i as usize - 1
-                        }
-                    })
-                    .collect();
-                for k in 1..idx.len() - 1 {
-                    in_file += 1;
-                    let t = [verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]];
-                    // The scene loader drops zero-area triangles; do the same.
-                    if (t[1] - t[0]).cross(t[2] - t[0]).length_squared() > 0.0 {
-                        tris.push(t);
-                    }
-                }
-            }
-            _ => {}
-        }
-    }
-    Some((tris, in_file))
+/// Shipped scene `name` (a descriptor such as `sibenik`), read by the real scene loader from
+/// the shared scene directory. `None` only when no scene directory is configured at all
+/// (then the caller skips, and says so). With a directory configured, a missing or unreadable
+/// file is a test failure: a scene test must not pass without its scene.
+pub fn shared_scene(name: &str) -> Option<Scene> {
+    let Some(dir) = scene_dir() else {
+        eprintln!(
+            "skipping: no scene directory (set RTSIM_SCENE_DIR or put the shared scenes at \
+             ../shared/scenes)"
+        );
+        return None;
+    };
+    let scene = load_scene(&SceneRequest {
+        name,
+        size: 1.0,
+        seed: 1,
+        scene_dir: Some(&dir),
+    })
+    .unwrap_or_else(|e| panic!("scene `{name}` from {}: {e}", dir.display()));
+    Some(scene)
 }

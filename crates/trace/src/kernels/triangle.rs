@@ -58,7 +58,7 @@ pub struct Plucker;
 #[derive(Clone, Copy, Debug)]
 pub struct Wald;
 
-/// Wald's per-triangle record (44 bytes of data).
+/// Wald's per-triangle record (40 bytes of data: ten 4-byte words).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WaldTri {
     /// Plane: `P[k] + n_u·P[ku] + n_v·P[kv] = n_d`.
@@ -76,6 +76,32 @@ pub struct WaldTri {
     pub c_nu: f32,
     pub c_nv: f32,
     pub c_d: f32,
+}
+
+impl WaldTri {
+    /// The ten words in field order (`n_u n_v n_d k b_nu b_nv b_d c_nu c_nv c_d`),
+    /// little-endian: the data `rtsim_bvh`'s memory image places in its Wald region
+    /// (`SceneData::wald`), which arranges them as Wald's 48-byte `TriAccel` (layout in
+    /// `docs/MEMORY_IMAGE.md`).
+    pub fn to_le_bytes(&self) -> [u8; 40] {
+        let words = [
+            self.n_u.to_bits(),
+            self.n_v.to_bits(),
+            self.n_d.to_bits(),
+            self.k,
+            self.b_nu.to_bits(),
+            self.b_nv.to_bits(),
+            self.b_d.to_bits(),
+            self.c_nu.to_bits(),
+            self.c_nv.to_bits(),
+            self.c_d.to_bits(),
+        ];
+        let mut out = [0u8; 40];
+        for (chunk, w) in out.chunks_exact_mut(4).zip(words) {
+            chunk.copy_from_slice(&w.to_le_bytes());
+        }
+        out
+    }
 }
 
 /// Exits of [`moller_trumbore_exit`].
@@ -454,6 +480,22 @@ mod tests {
         for h in all(&unit_tri(), &ray) {
             assert!((h.unwrap().t - 1.0).abs() < 1e-6);
         }
+    }
+
+    #[test]
+    fn wald_record_bytes_are_the_fields_in_order() {
+        let w = Wald::record(&[
+            Vec3::new(0.5, -1.0, 2.0),
+            Vec3::new(3.0, 0.25, 1.0),
+            Vec3::new(-2.0, 1.5, 0.75),
+        ]);
+        let b = w.to_le_bytes();
+        let word = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap());
+        let f = |k: usize| f32::from_bits(word(k));
+        assert_eq!((f(0), f(1), f(2), word(3)), (w.n_u, w.n_v, w.n_d, w.k));
+        assert_eq!((f(4), f(5), f(6)), (w.b_nu, w.b_nv, w.b_d));
+        assert_eq!((f(7), f(8), f(9)), (w.c_nu, w.c_nv, w.c_d));
+        assert!(w.k < 3);
     }
 
     #[test]
