@@ -56,11 +56,14 @@ impl Gen {
     }
 }
 
+/// Access `i` of a generated trace: (is a write, byte address).
+type Access = fn(&mut Gen, u64) -> (bool, u64);
+
 /// Traces of 20 000 accesses: uniform random over 1 MB, strided (several strides that
 /// conflict in the sets), reuse-heavy (a drifting 24 KB working set) and a write-heavy mix.
 fn traces(dir: &Path) -> Vec<(&'static str, std::path::PathBuf)> {
     let mut out = Vec::new();
-    let kinds: [(&str, fn(&mut Gen, u64) -> (bool, u64)); 4] = [
+    let kinds: [(&str, Access); 4] = [
         ("random", |g, _| (g.below(4) == 0, g.below(1 << 20))),
         ("strided", |g, i| {
             let stride = [64u64, 4096, 16448][(i / 5000) as usize % 3];

@@ -71,20 +71,20 @@ impl FunctionalHierarchy {
         let policy = c.write_policy();
         let allocate = !hit && (op == MemOp::Read || policy == WritePolicy::WriteBack);
         if allocate {
-            self.to_parent(n, addr, MemOp::Read);
+            self.pass_down(n, addr, MemOp::Read);
             let evicted = self.caches[n].fill(addr, op == MemOp::Write);
             if let Some(e) = evicted.filter(|e| e.dirty) {
-                self.to_parent(n, e.addr, MemOp::Write);
+                self.pass_down(n, e.addr, MemOp::Write);
             }
         }
         if op == MemOp::Write && policy == WritePolicy::WriteAround {
             self.caches[n].stats.write_throughs += 1;
-            self.to_parent(n, addr, MemOp::Write);
+            self.pass_down(n, addr, MemOp::Write);
         }
         hit
     }
 
-    fn to_parent(&mut self, n: usize, addr: u64, op: MemOp) {
+    fn pass_down(&mut self, n: usize, addr: u64, op: MemOp) {
         match self.topology.parent(n) {
             Parent::Cache(p) => {
                 self.access_node(p, addr, op);
