@@ -26,6 +26,8 @@ pub enum Command {
     Bench(BenchArgs),
     /// Run the DRAM model alone on a request trace or synthetic traffic (see docs/DRAM.md).
     Dram(crate::commands::dram::DramArgs),
+    /// Replay an address trace through a cache hierarchy, functionally or timed (docs/CACHES.md).
+    Cache(crate::commands::cache::CacheArgs),
 }
 
 /// Flags shared by everything that loads a scene and a config.

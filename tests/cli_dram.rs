@@ -180,7 +180,7 @@ fn the_three_trace_formats() {
     }
     // DRAMsim3 cycles are memory cycles: the requester clock follows the memory clock.
     let s = stats(&d.join("dramsim3"));
-    assert_eq!(s["config"]["requester_clock_mhz"], 800.0);
+    assert_eq!(s["config"]["trace"]["requester_clock_mhz"], 800.0);
     assert_eq!(s["run"]["max_outstanding_reads"], serde_json::Value::Null);
     let s = stats(&d.join("usimm"));
     assert_eq!(s["run"]["max_outstanding_reads"], 64);
@@ -272,7 +272,7 @@ fn config_file_and_set_layers() {
     // A chip-style file with a [dram] table.
     std::fs::write(
         d.join("chip.toml"),
-        "[dram]\npreset = \"lpddr3-1600\"\nrequester_clock_mhz = 500.0\n\
+        "[dram]\npreset = \"lpddr3-1600\"\ntrace.requester_clock_mhz = 500.0\n\
          [dram.controller]\nscheduler = \"fcfs\"\nrow_policy = \"closed\"\n",
     )
     .unwrap();
@@ -297,7 +297,8 @@ fn config_file_and_set_layers() {
     let s = stats(&d.join("o"));
     let c = &s["config"];
     assert_eq!(c["preset"], "lpddr3-1600");
-    assert_eq!(c["requester_clock_mhz"], 500.0);
+    assert_eq!(c["trace"]["requester_clock_mhz"], 500.0);
+    assert_eq!(s["report"]["setup"]["requester_clock_hz"], 500_000_000u64);
     assert_eq!(c["controller"]["scheduler"], "fcfs");
     assert_eq!(c["controller"]["row_policy"], "closed");
     assert_eq!(c["timing"]["tRCD"], 16);
@@ -319,6 +320,18 @@ fn config_file_and_set_layers() {
         d,
     );
     assert_eq!(stats(&d.join("o2"))["report"], s["report"]);
+    // The requester clock is the standalone run's own key; the old root key says where it went.
+    fails(
+        &[
+            "dram",
+            "--set",
+            "requester_clock_mhz=500",
+            "--synthetic",
+            "random",
+        ],
+        d,
+        &["requester_clock_mhz", "trace.requester_clock_mhz"],
+    );
     // --preset overrides the file's preset.
     ok(
         &[

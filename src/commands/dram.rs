@@ -10,7 +10,7 @@ use rtsim_config::ConfigError;
 use rtsim_core::output::write_atomic;
 use rtsim_dram::config::{PRESETS, UserLayers};
 use rtsim_dram::trace::{Pattern, Synthetic, TraceError, TraceFormat, TraceReader};
-use rtsim_dram::{Dram, DramConfig, DriveOptions, DriveSummary, Report, drive};
+use rtsim_dram::{Dram, DramConfig, DriveOptions, DriveSummary, Report, Requester, drive};
 use serde::Serialize;
 use std::convert::Infallible;
 use std::io::Read;
@@ -155,9 +155,9 @@ pub fn run(args: DramArgs) -> Result<()> {
     })?;
     if args.trace.is_some() && format == TraceFormat::Dramsim3 {
         // DRAMsim3 traces are timed in memory cycles at the controller.
-        config.requester_clock_mhz = config.timing.clock_mhz;
+        config.trace.requester_clock_mhz = config.timing.clock_mhz;
     }
-    let mut dram = Dram::new(&config)?;
+    let mut dram = Dram::new(&config, Requester::mhz(config.trace.requester_clock_mhz))?;
     let max_outstanding = match (&args.trace, format) {
         (Some(_), TraceFormat::Usimm) => Some(
             args.max_outstanding

@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod bvh_stats;
+pub mod cache;
 pub mod dram;
 pub mod export;
 pub mod render;
@@ -20,6 +21,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Scenes(a) => scenes::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Dram(a) => dram::run(a),
+        Command::Cache(a) => cache::run(a),
     }
 }
 

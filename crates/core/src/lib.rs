@@ -28,7 +28,7 @@ pub mod stats;
 
 pub use clock::Clock;
 pub use math::{Aabb, Affine, Vec3};
-pub use mem::{MemCompletion, MemOp, MemRequest, MemoryPort, QueueFull};
+pub use mem::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort, QueueFull};
 pub use ray::Ray;
 pub use real::Real;
 pub use rng::Pcg32;

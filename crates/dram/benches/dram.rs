@@ -4,7 +4,7 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rtsim_dram::config::preset_config;
 use rtsim_dram::trace::{Pattern, Synthetic};
-use rtsim_dram::{Dram, DriveOptions, drive};
+use rtsim_dram::{Dram, DriveOptions, Requester, drive};
 use std::convert::Infallible;
 use std::hint::black_box;
 
@@ -12,7 +12,7 @@ const N: u64 = 200_000;
 
 fn run(preset: &str, pattern: Pattern) -> u64 {
     let c = preset_config(preset).unwrap();
-    let mut d = Dram::new(&c).unwrap();
+    let mut d = Dram::new(&c, Requester::mhz(1000.0)).unwrap();
     let cap = d.spec().org.capacity_bytes;
     let traffic = Synthetic::new(pattern, N, 0.8, 0, 64, cap, 1);
     let s = drive(

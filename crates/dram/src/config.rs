@@ -21,10 +21,6 @@ pub struct DramConfig {
     /// chip configs use it to pick the base layer; in a resolved config it records the origin.
     /// Default `gddr5-trax`.
     pub preset: String,
-    /// Clock of the requester (the chip or the trace), in MHz; request arrival and finish times on
-    /// the `MemoryPort` interface are in this clock. Any ratio to `timing.clock_mhz` is allowed;
-    /// the value is rounded to whole hertz. Default 1000 (TRaX's 1 GHz core).
-    pub requester_clock_mhz: f64,
     /// Address mapping, most significant field first: `row:rank:bank:channel:column:offset`
     /// (default, SimTRaX/USIMM mapping 1), `row:column:rank:bank:channel:offset` (USIMM mapping 0,
     /// channel-interleaved lines), or any order of the fields `row`, `rank`, `bankgroup`, `bank`,
@@ -288,6 +284,11 @@ pub struct RefreshConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TraceConfig {
+    /// Clock of the trace's requester in MHz: `rtsim` and `usimm` trace cycles and synthetic
+    /// traffic are in this clock, and latencies are also reported in it. Chip models pass their
+    /// own clock instead (`rtsim_dram::Requester`). Any ratio to `timing.clock_mhz` within a
+    /// factor of 1024; rounded to whole hertz. Default 1000 (TRaX's 1 GHz core).
+    pub requester_clock_mhz: f64,
     /// USIMM traces: at most this many reads outstanding; the trace stalls until one returns
     /// (stands in for USIMM's reorder buffer; USIMM's 1channel.cfg uses ROBSIZE 64).
     /// 1..=1000000. Default 64.
@@ -298,7 +299,6 @@ impl Default for DramConfig {
     fn default() -> Self {
         DramConfig {
             preset: "gddr5-trax".into(),
-            requester_clock_mhz: 1000.0,
             mapping: "row:rank:bank:channel:column:offset".into(),
             bank_xor: false,
             check: false,
@@ -411,6 +411,7 @@ impl Default for RefreshConfig {
 impl Default for TraceConfig {
     fn default() -> Self {
         TraceConfig {
+            requester_clock_mhz: 1000.0,
             usimm_max_outstanding_reads: 64,
         }
     }
@@ -463,12 +464,12 @@ impl Validate for DramConfig {
         if self.preset.trim().is_empty() {
             return Err(ConfigError::key("preset", "must not be empty"));
         }
-        check_mhz("requester_clock_mhz", self.requester_clock_mhz)?;
-        let ratio = self.requester_clock_mhz / self.timing.clock_mhz;
+        check_mhz("trace.requester_clock_mhz", self.trace.requester_clock_mhz)?;
+        let ratio = self.trace.requester_clock_mhz / self.timing.clock_mhz;
         if !(1.0 / 1024.0..=1024.0).contains(&ratio) {
             return Err(ConfigError::range(
-                "requester_clock_mhz",
-                self.requester_clock_mhz,
+                "trace.requester_clock_mhz",
+                self.trace.requester_clock_mhz,
                 format!(
                     "within a factor of 1024 of timing.clock_mhz = {}",
                     self.timing.clock_mhz
@@ -877,6 +878,13 @@ pub fn layers(user: &UserLayers<'_>) -> Result<Layers, ConfigError> {
             },
             other => other,
         })?;
+    }
+    if mine.get("requester_clock_mhz").is_some() {
+        return Err(ConfigError::key(
+            "requester_clock_mhz",
+            "has moved to `trace.requester_clock_mhz` (used by `rtsim dram` only; chip models \
+             pass their own clock to the DRAM model)",
+        ));
     }
     let name = match mine.get("preset") {
         Some(Value::String(s)) => s.clone(),

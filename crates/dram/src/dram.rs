@@ -1,7 +1,9 @@
 //! [`Dram`]: the whole memory system behind one [`MemoryPort`].
 //!
 //! Requests are decoded by the address mapper and handed to their channel's controller; a full
-//! queue refuses them ([`QueueFull`]). Time on the port is in requester cycles. `advance_to(c)`
+//! queue refuses them ([`QueueFull`], with the cycle from which a retry can succeed); a request
+//! arriving at a cycle already simulated, or with a tag outside the requester's range, is an
+//! error ([`MemError`]). Time on the port is in requester cycles. `advance_to(c)`
 //! simulates every memory cycle that starts before requester cycle `c + 1` — channel by
 //! channel, since channels share nothing — and collects completions, whose finish times are
 //! rounded up to the requester clock. A request arriving at requester cycle `a` reaches the
@@ -14,10 +16,10 @@ use crate::controller::Channel;
 use crate::controller::queue::{Entry, NIL};
 use crate::energy::EnergyReport;
 use crate::report::Report;
-use crate::spec::DramSpec;
+use crate::spec::{DramSpec, Requester};
 use crate::stats::DramStats;
 use rtsim_config::ConfigError;
-use rtsim_core::{MemCompletion, MemOp, MemRequest, MemoryPort, QueueFull};
+use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort, QueueFull};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -66,9 +68,10 @@ pub struct Dram {
 }
 
 impl Dram {
-    /// Build from a configuration (validated here).
-    pub fn new(config: &DramConfig) -> Result<Self, ConfigError> {
-        Ok(Dram::from_spec(DramSpec::new(config)?))
+    /// Build from a configuration and the requester it serves (its clock, which the chip
+    /// provides, and its number of tags); both validated here.
+    pub fn new(config: &DramConfig, requester: Requester) -> Result<Self, ConfigError> {
+        Ok(Dram::from_spec(DramSpec::new(config, requester)?))
     }
 
     /// Build from a resolved spec.
@@ -188,8 +191,11 @@ impl Dram {
     /// blocked on one channel may jump straight there.
     pub fn next_event_for(&self, addr: u64) -> Option<u64> {
         let loc = self.spec.mapper.decode(self.spec.mapper.line_addr(addr));
-        let m = self.channels[loc.channel as usize].next_event();
-        let e = self.mem_event_to_req(m);
+        self.channel_event(loc.channel as usize)
+    }
+
+    fn channel_event(&self, channel: usize) -> Option<u64> {
+        let e = self.mem_event_to_req(self.channels[channel].next_event());
         (e != u64::MAX).then_some(e)
     }
 
@@ -203,14 +209,36 @@ impl Dram {
 }
 
 impl MemoryPort for Dram {
-    fn try_enqueue(&mut self, req: MemRequest) -> Result<(), QueueFull> {
+    fn try_enqueue(&mut self, req: MemRequest) -> Result<(), MemError> {
+        if let Some(now) = self.now_req.filter(|&n| req.arrival <= n) {
+            return Err(MemError::Past {
+                id: req.id,
+                arrival: req.arrival,
+                now,
+            });
+        }
+        if req.tag >= self.spec.tags {
+            return Err(MemError::Tag {
+                id: req.id,
+                tag: req.tag,
+                tags: self.spec.tags,
+            });
+        }
         let map = &self.spec.mapper;
         let line = map.line_addr(req.addr);
         let loc = map.decode(line);
         let ch = &mut self.channels[loc.channel as usize];
         if !ch.has_room(req.op) {
-            ch.refused(req.op);
-            return Err(QueueFull);
+            ch.refused(req.op, req.tag);
+            // Room can only appear when the channel next acts, simulated by advancing to the
+            // cycle of that event; the retried request then arrives in the cycle after it.
+            let e = self
+                .channel_event(loc.channel as usize)
+                .expect("a full queue implies a future event");
+            return Err(QueueFull {
+                retry_at: e.max(req.arrival) + 1,
+            }
+            .into());
         }
         let arrival_mem = self
             .spec
@@ -225,6 +253,7 @@ impl MemoryPort for Dram {
             op: req.op,
             arrival_req: req.arrival,
             arrival_mem,
+            tag: req.tag,
             seq: self.seq,
             rank: loc.rank,
             bank: loc.rank * self.spec.org.banks_per_rank + loc.bank,
@@ -289,14 +318,23 @@ impl MemoryPort for Dram {
     fn outstanding(&self) -> usize {
         self.outstanding
     }
+
+    fn now(&self) -> Option<u64> {
+        self.now_req
+    }
+
+    fn line_bytes(&self) -> u32 {
+        self.spec.org.line_bytes
+    }
 }
 
-/// Convenience for tests and tools: a read or write request.
+/// Convenience for tests and tools: a read or write request with tag 0.
 pub fn request(id: u64, addr: u64, op: MemOp, arrival: u64) -> MemRequest {
     MemRequest {
         id,
         addr,
         op,
         arrival,
+        tag: 0,
     }
 }

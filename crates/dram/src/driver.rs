@@ -8,7 +8,7 @@
 
 use crate::dram::Dram;
 use crate::trace::{TraceRecord, When};
-use rtsim_core::{MemCompletion, MemOp, MemRequest, MemoryPort};
+use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
 
 /// Options of a run.
 #[derive(Clone, Copy, Debug, Default)]
@@ -99,18 +99,19 @@ pub fn drive<E>(
                 addr: rec.addr,
                 op: rec.op,
                 arrival: t,
+                tag: 0,
             };
-            if st.dram.try_enqueue(req).is_ok() {
-                break;
+            match st.dram.try_enqueue(req) {
+                Ok(()) => break,
+                // Full: nothing changes for this channel before its next event; retry when the
+                // port says (other channels are simulated up to then on the way).
+                Err(MemError::Full(q)) => {
+                    st.advance(q.retry_at - 1);
+                    t = q.retry_at;
+                }
+                // The driver advances to t − 1 before offering arrival t, with tag 0.
+                Err(e) => unreachable!("driver request rejected: {e}"),
             }
-            // Full: nothing changes for this channel before its next event; retry the cycle
-            // after it (other channels are simulated up to then on the way).
-            let e = st
-                .dram
-                .next_event_for(rec.addr)
-                .expect("a full queue implies a future event");
-            st.advance(e.max(t));
-            t = st.next_cycle();
         }
         sum.stall_cycles += t - wanted;
         last_issue = t;

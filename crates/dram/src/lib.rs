@@ -15,7 +15,8 @@
 //!   open/closed page ([`controller::row_policy`]), refresh ([`controller::refresh`]), rank power
 //!   states ([`controller::power`]), write-drain watermarks; simulated event by event.
 //! - [`dram`]: [`Dram`], all channels behind one `MemoryPort`, with the clock-domain crossing
-//!   between the requester and memory clocks.
+//!   between the requester and memory clocks. The requester — its clock and its number of
+//!   tags — is given by the chip at construction ([`Requester`]); stats are split per tag.
 //! - [`checker`]: [`Checker`], an independent referee that re-validates every issued command
 //!   (checking mode, `check = true`).
 //! - [`stats`], [`energy`], [`report`]: [`DramStats`] (typed counters, `+=`), energy by
@@ -48,5 +49,5 @@ pub use driver::{DriveOptions, DriveSummary, drive};
 pub use engine::Engine;
 pub use mapping::AddressMapper;
 pub use report::Report;
-pub use spec::DramSpec;
-pub use stats::DramStats;
+pub use spec::{DramSpec, MAX_TAGS, Requester};
+pub use stats::{DramStats, TagStats};

@@ -115,6 +115,19 @@ pub struct ChannelSummary {
     pub data_bus_busy: f64,
 }
 
+/// Per requester tag (an L2, a unit): requests, row-buffer hit rate, read latency.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct TagSummary {
+    pub tag: usize,
+    pub reads: u64,
+    pub writes: u64,
+    pub refused: u64,
+    /// Row hits over this tag's column accesses.
+    pub row_hit_rate: f64,
+    /// Requester cycles.
+    pub read_latency_mean: f64,
+}
+
 /// Everything `dram_stats.json` holds.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Report {
@@ -132,6 +145,7 @@ pub struct Report {
     pub bandwidth: Bandwidth,
     pub energy: EnergyReport,
     pub per_channel: Vec<ChannelSummary>,
+    pub per_tag: Vec<TagSummary>,
     /// Raw counters (numerators and denominators), summed over channels.
     pub stats: DramStats,
 }
@@ -215,6 +229,19 @@ impl Report {
                     row_hit_rate: c.row_hit_rate(),
                     read_latency_mean_mem: c.read_latency_mem.mean(),
                     data_bus_busy: ratio(c.data_bus_busy_cycles as f64, s.mem_cycles as f64),
+                })
+                .collect(),
+            per_tag: s
+                .per_tag
+                .iter()
+                .enumerate()
+                .map(|(tag, t)| TagSummary {
+                    tag,
+                    reads: t.reads,
+                    writes: t.writes,
+                    refused: t.refused,
+                    row_hit_rate: ratio(t.row_hits as f64, t.column_accesses as f64),
+                    read_latency_mean: t.read_latency_req.mean(),
                 })
                 .collect(),
             stats: s,

@@ -1,13 +1,31 @@
 //! Typed statistics of the DRAM model. Counters keep numerators and denominators; rates,
 //! averages and energies are computed when reporting ([`crate::report`]). Per-channel stats are
-//! summed with `+=`.
+//! summed with `+=`, derived field by field (`rtsim_sim::Stats`), so no counter can be left out.
 
 use rtsim_core::stats::{Histogram, ratio};
+use rtsim_sim::Stats;
 use serde::{Deserialize, Serialize};
-use std::ops::AddAssign;
+
+/// Counters of one requester tag (an L2, a unit) in one channel, or summed.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, Stats)]
+pub struct TagStats {
+    /// Read requests accepted.
+    pub reads: u64,
+    /// Write requests accepted.
+    pub writes: u64,
+    /// Requests refused because their queue was full.
+    pub refused: u64,
+    /// Column commands (reads and writes) issued for this tag's requests (merged and forwarded
+    /// requests issue none).
+    pub column_accesses: u64,
+    /// Those that found their row open.
+    pub row_hits: u64,
+    /// Read latency from arrival to the last data beat, requester cycles.
+    pub read_latency_req: Histogram,
+}
 
 /// Counters of one channel (or, summed, of the whole memory).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, Stats)]
 pub struct DramStats {
     /// Read requests accepted.
     pub reads: u64,
@@ -77,8 +95,10 @@ pub struct DramStats {
     /// Cycles over which occupancy was integrated (per channel).
     pub occupancy_cycles: u64,
     /// Largest read-queue occupancy seen.
+    #[stats(max)]
     pub read_queue_max: u64,
     /// Largest write-queue occupancy seen.
+    #[stats(max)]
     pub write_queue_max: u64,
 
     /// Memory cycles the data bus carried data.
@@ -96,11 +116,14 @@ pub struct DramStats {
     pub rank_cycles_active_power_down: u64,
 
     /// Memory cycles simulated (the largest over channels when summed).
+    #[stats(max)]
     pub mem_cycles: u64,
     /// Commands re-validated by the checker (checking mode).
     pub commands_checked: u64,
     /// Legality violations the checker found (must be 0).
     pub violations: u64,
+    /// The same split by requester tag (`MemRequest::tag`), one entry per tag.
+    pub per_tag: Vec<TagStats>,
 }
 
 impl DramStats {
@@ -146,57 +169,18 @@ fn by_activates(acts: u64, accesses: u64) -> f64 {
     }
 }
 
-impl AddAssign<&DramStats> for DramStats {
-    fn add_assign(&mut self, o: &DramStats) {
-        self.reads += o.reads;
-        self.writes += o.writes;
-        self.reads_refused += o.reads_refused;
-        self.writes_refused += o.writes_refused;
-        self.reads_merged += o.reads_merged;
-        self.reads_forwarded += o.reads_forwarded;
-        self.writes_merged += o.writes_merged;
-        self.reads_done += o.reads_done;
-        self.writes_done += o.writes_done;
-        self.read_row_hits += o.read_row_hits;
-        self.read_row_misses += o.read_row_misses;
-        self.read_row_conflicts += o.read_row_conflicts;
-        self.write_row_hits += o.write_row_hits;
-        self.write_row_misses += o.write_row_misses;
-        self.write_row_conflicts += o.write_row_conflicts;
-        self.activates += o.activates;
-        self.activates_for_reads += o.activates_for_reads;
-        self.activates_for_writes += o.activates_for_writes;
-        self.precharges += o.precharges;
-        self.refresh_precharges += o.refresh_precharges;
-        self.auto_precharges += o.auto_precharges;
-        self.column_reads += o.column_reads;
-        self.column_writes += o.column_writes;
-        self.refreshes += o.refreshes;
-        self.power_downs += o.power_downs;
-        self.read_latency_mem += &o.read_latency_mem;
-        self.read_latency_req += &o.read_latency_req;
-        self.write_latency_mem += &o.write_latency_mem;
-        self.write_latency_req += &o.write_latency_req;
-        self.read_queue_occupancy_sum += o.read_queue_occupancy_sum;
-        self.write_queue_occupancy_sum += o.write_queue_occupancy_sum;
-        self.occupancy_cycles += o.occupancy_cycles;
-        self.read_queue_max = self.read_queue_max.max(o.read_queue_max);
-        self.write_queue_max = self.write_queue_max.max(o.write_queue_max);
-        self.data_bus_busy_cycles += o.data_bus_busy_cycles;
-        self.write_drain_episodes += o.write_drain_episodes;
-        self.write_drain_cycles += o.write_drain_cycles;
-        self.rank_cycles_precharge_standby += o.rank_cycles_precharge_standby;
-        self.rank_cycles_active_standby += o.rank_cycles_active_standby;
-        self.rank_cycles_precharge_power_down += o.rank_cycles_precharge_power_down;
-        self.rank_cycles_active_power_down += o.rank_cycles_active_power_down;
-        self.mem_cycles = self.mem_cycles.max(o.mem_cycles);
-        self.commands_checked += o.commands_checked;
-        self.violations += o.violations;
-    }
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-impl AddAssign for DramStats {
-    fn add_assign(&mut self, o: DramStats) {
-        *self += &o;
+    #[test]
+    fn every_counter_is_merged() {
+        let mut s = DramStats {
+            per_tag: vec![TagStats::default(); 2],
+            ..DramStats::default()
+        };
+        s.read_latency_mem.record(5);
+        s.per_tag[1].read_latency_req.record(7);
+        rtsim_sim::testing::assert_merges_every_field(&s);
     }
 }

@@ -12,7 +12,7 @@
 use rtsim_dram::config::{PRESETS, preset_config};
 use rtsim_dram::engine::CLOSED;
 use rtsim_dram::spec::constraints::{Cmd, Constraint, Scope};
-use rtsim_dram::{Checker, DramSpec, Engine};
+use rtsim_dram::{Checker, DramSpec, Engine, Requester};
 
 const ROW: u32 = 7;
 const GAP: u64 = 100_000;
@@ -199,7 +199,7 @@ fn every_constraint_in_every_preset_is_enforced_on_time() {
     for p in PRESETS {
         let mut cfg = preset_config(p.name).unwrap();
         cfg.refresh.enabled = false;
-        let spec = DramSpec::new(&cfg).unwrap();
+        let spec = DramSpec::new(&cfg, Requester::mhz(1000.0)).unwrap();
         for c in &spec.constraints {
             if c.cycles == 0 {
                 report.push(format!("{}: `{}` is 0 cycles here", p.name, c.what));
@@ -255,7 +255,11 @@ fn every_constraint_in_every_preset_is_enforced_on_time() {
 /// The table's delays for the default preset are the values the issue gives.
 #[test]
 fn gddr5_trax_delays_match_the_issue() {
-    let spec = DramSpec::new(&preset_config("gddr5-trax").unwrap()).unwrap();
+    let spec = DramSpec::new(
+        &preset_config("gddr5-trax").unwrap(),
+        Requester::mhz(1000.0),
+    )
+    .unwrap();
     let delay = |what: &str| {
         spec.constraints
             .iter()

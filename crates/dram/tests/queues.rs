@@ -8,7 +8,7 @@ use proptest::prelude::*;
 use rtsim_core::{MemOp, MemoryPort};
 use rtsim_dram::config::{PRESETS, PowerDownKind, RowPolicyKind, SchedulerKind};
 use rtsim_dram::trace::{Pattern, Synthetic, TraceRecord, When};
-use rtsim_dram::{Dram, DriveOptions, drive};
+use rtsim_dram::{DriveOptions, drive};
 use std::convert::Infallible;
 
 /// Each queue takes exactly its capacity, refuses the next request, and takes one more once a
@@ -183,7 +183,7 @@ fn runs_are_deterministic() {
     let run = || {
         let mut c = config("gddr5-strata");
         c.controller.row_hit_cap = 4;
-        let mut d = Dram::new(&c).unwrap();
+        let mut d = dram(&c);
         let t = Synthetic::new(Pattern::Random, 30_000, 0.7, 1, 64, 1 << 30, 42);
         let s = drive(
             &mut d,
@@ -258,7 +258,7 @@ fn unprotected_row_hits_can_be_closed() {
     let run = |protect: bool| {
         let mut c = config("ddr3-1600");
         c.controller.protect_row_hits = protect;
-        let mut d = Dram::new(&c).unwrap();
+        let mut d = dram(&c);
         // Runs of lines in random rows, reads and writes mixed: hits and conflicts interleave.
         let mut rng = rtsim_core::Pcg32::new(5, 1);
         let mut recs = Vec::new();
@@ -332,7 +332,7 @@ proptest! {
             c.controller.power_down = PowerDownKind::Fast;
             c.controller.power_down_idle = 5;
         }
-        let mut d = Dram::new(&c).unwrap();
+        let mut d = dram(&c);
         let row = d.spec().org.row_bytes;
         let trace: Vec<TraceRecord> = recs
             .iter()
@@ -374,4 +374,106 @@ proptest! {
         prop_assert_eq!(s.writes_done, s.column_writes + s.writes_merged);
         prop_assert!(d.violations().is_empty(), "{:?}", d.violations());
     }
+}
+
+/// A refused request's retry hint never skips a cycle at which the request could have been
+/// accepted: a requester that follows the hints is accepted in the same cycle as one that
+/// polls every cycle, with far fewer attempts.
+#[test]
+fn retry_hints_skip_only_hopeless_cycles() {
+    use rtsim_core::MemError;
+    for p in ["gddr5-trax", "lpddr3-1600", "ddr4-3200"] {
+        let mut c = config(p);
+        c.controller.read_queue = 4;
+        let fill = |d: &mut rtsim_dram::Dram| -> u64 {
+            for i in 0..4 {
+                let a = addr(d, 0, 0, 0, 10 + i, 0);
+                d.try_enqueue(req(u64::from(i), a, MemOp::Read, 1)).unwrap();
+            }
+            addr(d, 0, 0, 1, 3, 0)
+        };
+        // Polling every cycle.
+        let mut poll = dram(&c);
+        let extra = fill(&mut poll);
+        let mut t = 1;
+        let mut polls = 0;
+        while poll.try_enqueue(req(9, extra, MemOp::Read, t)).is_err() {
+            polls += 1;
+            poll.advance_to(t);
+            t += 1;
+        }
+        // Following the hints.
+        let mut hint = dram(&c);
+        fill(&mut hint);
+        let mut at = 1;
+        let mut tries = 0;
+        loop {
+            match hint.try_enqueue(req(9, extra, MemOp::Read, at)) {
+                Ok(()) => break,
+                Err(MemError::Full(q)) => {
+                    assert!(q.retry_at > at, "{p}: hint does not move forward");
+                    tries += 1;
+                    hint.advance_to(q.retry_at - 1);
+                    at = q.retry_at;
+                }
+                Err(e) => panic!("{p}: {e}"),
+            }
+        }
+        assert_eq!(at, t, "{p}: accepted at {at} following hints, {t} polling");
+        assert!(tries < polls, "{p}: {tries} hinted tries vs {polls} polls");
+        run_to_idle(&mut hint);
+        assert_legal(&hint);
+    }
+}
+
+/// Requests in the past and tags out of range are errors, not panics; stats split by tag.
+#[test]
+fn past_arrivals_and_tags() {
+    use rtsim_core::{MemError, MemoryPort};
+    use rtsim_dram::{Dram, Requester};
+    let c = config("gddr5-trax");
+    let mut d = Dram::new(&c, Requester::mhz(1000.0).with_tags(3)).unwrap();
+    let a = addr(&d, 0, 0, 0, 1, 0);
+    let b = addr(&d, 0, 0, 0, 1, 1);
+    d.advance_to(100);
+    assert_eq!(
+        d.try_enqueue(req(1, a, MemOp::Read, 100)),
+        Err(MemError::Past {
+            id: 1,
+            arrival: 100,
+            now: 100
+        })
+    );
+    let mut r = req(2, a, MemOp::Read, 101);
+    r.tag = 3;
+    assert_eq!(
+        d.try_enqueue(r),
+        Err(MemError::Tag {
+            id: 2,
+            tag: 3,
+            tags: 3
+        })
+    );
+    r.tag = 2;
+    d.try_enqueue(r).unwrap();
+    let mut w = req(3, b, MemOp::Write, 101);
+    w.tag = 1;
+    d.try_enqueue(w).unwrap();
+    let out = run_to_idle(&mut d);
+    assert_eq!(out.iter().map(|c| c.tag).collect::<Vec<_>>().len(), 2);
+    assert!(out.iter().any(|c| c.id == 2 && c.tag == 2));
+    let s = d.stats();
+    assert_eq!(s.per_tag.len(), 3);
+    assert_eq!((s.per_tag[2].reads, s.per_tag[1].writes), (1, 1));
+    assert_eq!(s.per_tag[0].reads + s.per_tag[0].writes, 0);
+    assert_eq!(s.per_tag[2].read_latency_req.count, 1);
+    // The second access to the open row is a hit, whichever tag it came from.
+    assert_eq!(s.per_tag[1].row_hits + s.per_tag[2].row_hits, 1);
+    // Tags and the requester clock are validated at construction.
+    let e = Dram::new(&c, Requester::mhz(1000.0).with_tags(0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("requester tags"), "{e}");
+    let e = Dram::new(&c, Requester::mhz(1.0)).unwrap_err().to_string();
+    assert!(e.contains("requester clock") && e.contains("1024"), "{e}");
 }

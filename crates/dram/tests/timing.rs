@@ -24,8 +24,7 @@ fn unloaded_read_latency_is_the_analytic_sum() {
         for req_mhz in [1000.0, 500.0, 733.0] {
             let mut c = config(p.name);
             c.refresh.enabled = false;
-            c.requester_clock_mhz = req_mhz;
-            let mut d = dram(&c);
+            let mut d = dram_at(&c, req_mhz);
             let [hit, closed, conflict] = d.spec().unloaded_read_latency();
             let t = d.spec().t.clone();
             assert_eq!(hit, t.cl + t.burst);
@@ -112,7 +111,7 @@ fn unloaded_write_latency_and_closed_page() {
 
 /// Run a synthetic stream to completion; returns the DRAM for inspection.
 fn run(c: &rtsim_dram::DramConfig, traffic: Synthetic) -> Dram {
-    let mut d = Dram::new(c).unwrap();
+    let mut d = dram(c);
     drive(
         &mut d,
         traffic.map(Ok::<_, Infallible>),
@@ -131,7 +130,7 @@ fn streaming_reads_reach_90_percent_of_peak() {
         c.mapping = "row:rank:bank:column:bankgroup:channel:offset".into();
         let o = &c.organisation;
         let n = 4000 * u64::from(o.channels);
-        let d0 = Dram::new(&c).unwrap();
+        let d0 = dram(&c);
         let cap = d0.spec().org.capacity_bytes;
         let traffic = Synthetic::new(Pattern::Stream, n, 1.0, 0, o.line_bytes.into(), cap, 1);
         let mut d = run(&c, traffic);
@@ -155,7 +154,7 @@ fn single_bank_random_traffic_is_bounded_by_trc() {
     for p in PRESETS {
         let mut c = config(p.name);
         c.refresh.enabled = false;
-        let mut d = Dram::new(&c).unwrap();
+        let mut d = dram(&c);
         let rows = d.spec().org.rows;
         let n = 1000u64;
         for i in 0..n {
@@ -190,7 +189,7 @@ fn all_bank_random_traffic_is_bounded_by_trrd_and_tfaw() {
         c.refresh.enabled = false;
         c.controller.row_policy = RowPolicyKind::Closed;
         let n = 3000u64;
-        let mut d = Dram::new(&c).unwrap();
+        let mut d = dram(&c);
         let o = d.spec().org.clone();
         let t = d.spec().t.clone();
         let mut out = Vec::new();
@@ -239,7 +238,7 @@ fn refresh_count_is_time_over_trefi() {
         for stagger in [true, false] {
             let mut c = config(p.name);
             c.refresh.stagger_ranks = stagger;
-            let mut d = Dram::new(&c).unwrap();
+            let mut d = dram(&c);
             let refi = d.spec().t.refi;
             let ranks = u64::from(d.spec().org.ranks * d.spec().org.channels);
             // Idle, then loaded: refreshes keep their rate either way.
@@ -280,7 +279,7 @@ fn refresh_count_is_time_over_trefi() {
 fn idle_refreshes_are_skipped_exactly() {
     for p in PRESETS {
         let c = config(p.name);
-        let refi = Dram::new(&c).unwrap().spec().t.refi;
+        let refi = dram(&c).spec().t.refi;
         let mut jump = dram(&c);
         let mut walk = dram(&c);
         let x = addr(&jump, 0, 0, 1, 4, 0);
@@ -379,13 +378,12 @@ fn ticking_and_jumping_agree() {
         ("lpddr3-1600", 500.0),
         ("ddr3-1600", 1333.0),
     ] {
-        let mut c = config(preset);
-        c.requester_clock_mhz = mhz;
+        let c = config(preset);
         let reqs: Vec<_> = Synthetic::new(Pattern::Random, 400, 0.6, 2, 64, 1 << 24, 3)
             .enumerate()
             .map(|(i, r)| req(i as u64, r.addr, r.op, 2 * i as u64))
             .collect();
-        let mut ticked = dram(&c);
+        let mut ticked = dram_at(&c, mhz);
         let mut out_t = Vec::new();
         let mut i = 0;
         let mut now = 0;
@@ -402,7 +400,7 @@ fn ticking_and_jumping_agree() {
             ticked.drain_completions(&mut out_t);
             now += 1;
         }
-        let mut jumped = dram(&c);
+        let mut jumped = dram_at(&c, mhz);
         let mut out_j = Vec::new();
         let mut i = 0;
         let mut next = 0;
@@ -457,7 +455,7 @@ fn long_checked_runs_are_legal() {
                 c.controller.power_down_idle = 20;
             }
             let n = 300_000u64;
-            let cap = Dram::new(&c).unwrap().spec().org.capacity_bytes;
+            let cap = dram(&c).spec().org.capacity_bytes;
             let traffic = Synthetic::new(pattern, n, 0.7, 3, 64, cap, 11);
             let d = run(&c, traffic);
             let mut d = d;

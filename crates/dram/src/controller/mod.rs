@@ -22,7 +22,7 @@ use crate::engine::{CLOSED, Engine};
 use crate::spec::DramSpec;
 use crate::spec::Ratio;
 use crate::spec::constraints::Cmd;
-use crate::stats::DramStats;
+use crate::stats::{DramStats, TagStats};
 use power::RankPower;
 use queue::{Admit, Entry, NIL, QueuePolicy, RequestQueues};
 use refresh::Refresh;
@@ -116,7 +116,10 @@ impl Channel {
             ras: spec.t.ras,
             wr: spec.t.wr,
             mem_to_req: spec.mem_to_req,
-            stats: DramStats::default(),
+            stats: DramStats {
+                per_tag: vec![TagStats::default(); spec.tags as usize],
+                ..DramStats::default()
+            },
             checker: spec.config.check.then(|| Checker::new(spec, index)),
             done: Vec::with_capacity((spec.controller().read_queue * 2) as usize),
         };
@@ -134,16 +137,24 @@ impl Channel {
     /// not before the first unsimulated cycle.
     pub fn enqueue(&mut self, e: Entry) {
         debug_assert!(e.arrival_mem >= self.done_below);
+        let tag = &mut self.stats.per_tag[e.tag as usize];
         match e.op {
-            MemOp::Read => self.stats.reads += 1,
-            MemOp::Write => self.stats.writes += 1,
+            MemOp::Read => {
+                self.stats.reads += 1;
+                tag.reads += 1;
+            }
+            MemOp::Write => {
+                self.stats.writes += 1;
+                tag.writes += 1;
+            }
         }
         self.q.push_pending(e);
         self.next_event = self.next_event.min(e.arrival_mem);
     }
 
     /// Count a refused request.
-    pub fn refused(&mut self, op: MemOp) {
+    pub fn refused(&mut self, op: MemOp, tag: u32) {
+        self.stats.per_tag[tag as usize].refused += 1;
         match op {
             MemOp::Read => self.stats.reads_refused += 1,
             MemOp::Write => self.stats.writes_refused += 1,
@@ -559,6 +570,9 @@ impl Channel {
                 &mut s.write_row_conflicts,
             )
         };
+        let tag = &mut s.per_tag[e.tag as usize];
+        tag.column_accesses += 1;
+        tag.row_hits += u64::from(!e.act_for);
         match (e.act_for, e.pre_for) {
             (false, _) => {
                 *hits += 1;
@@ -590,6 +604,9 @@ impl Channel {
                 self.stats.reads_done += 1;
                 self.stats.read_latency_mem.record(lat_mem);
                 self.stats.read_latency_req.record(lat_req);
+                self.stats.per_tag[e.tag as usize]
+                    .read_latency_req
+                    .record(lat_req);
             }
             MemOp::Write => {
                 self.stats.writes_done += 1;
@@ -603,6 +620,7 @@ impl Channel {
             op: e.op,
             arrival: e.arrival_req,
             finish: finish_req,
+            tag: e.tag,
         });
     }
 

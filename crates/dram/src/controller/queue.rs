@@ -27,6 +27,8 @@ pub struct Entry {
     pub arrival_req: u64,
     /// Memory cycle at which the controller sees it.
     pub arrival_mem: u64,
+    /// Requester tag (per-tag stats).
+    pub tag: u32,
     /// Global arrival order (smaller = older).
     pub seq: u64,
     pub rank: u32,
@@ -97,6 +99,7 @@ impl RequestQueues {
             op: MemOp::Read,
             arrival_req: 0,
             arrival_mem: 0,
+            tag: 0,
             seq: 0,
             rank: 0,
             bank: 0,

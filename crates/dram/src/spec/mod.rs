@@ -12,6 +12,7 @@ use constraints::{Constraint, Param};
 use power::EventEnergy;
 use rtsim_config::{ConfigError, Validate};
 use rtsim_core::Clock;
+pub use rtsim_sim::Ratio;
 
 /// Sizes derived from the organisation.
 #[derive(Clone, Debug, PartialEq)]
@@ -96,51 +97,31 @@ impl Timings {
     }
 }
 
-/// Exact cycle conversion from one clock to another, `cycles · num / den` with the fraction
-/// reduced, so the common ratios (1:2, 5:8) stay in 64-bit integer arithmetic on the hot path.
-/// Matches [`Clock::to_ceil`] / [`Clock::to_floor`] exactly.
+/// Who talks to the memory: the requester's clock (the chip's, or a trace's) and how many
+/// requester tags its requests may carry (`MemRequest::tag` in `0..tags`; stats are kept per
+/// tag). Chip models pass their own clock here, so the DRAM config holds no requester clock.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Ratio {
-    num: u64,
-    den: u64,
-    from: Clock,
-    to: Clock,
+pub struct Requester {
+    pub clock: Clock,
+    /// 1..=[`MAX_TAGS`].
+    pub tags: u32,
 }
 
-fn gcd(mut a: u64, mut b: u64) -> u64 {
-    while b != 0 {
-        (a, b) = (b, a % b);
-    }
-    a
-}
+/// Most requester tags a DRAM model keeps statistics for (per-tag counters are kept per
+/// channel, so this bounds their memory).
+pub const MAX_TAGS: u32 = 4096;
 
-impl Ratio {
-    pub fn new(from: Clock, to: Clock) -> Self {
-        let g = gcd(from.hz, to.hz).max(1);
-        Ratio {
-            num: to.hz / g,
-            den: from.hz / g,
-            from,
-            to,
-        }
+impl Requester {
+    /// A requester with one tag.
+    pub fn new(clock: Clock) -> Self {
+        Requester { clock, tags: 1 }
     }
-    /// The first cycle of the target clock at or after `cycles` of the source clock.
-    #[inline]
-    pub fn ceil(&self, cycles: u64) -> u64 {
-        match cycles.checked_mul(self.num) {
-            Some(n) if self.den == 1 => n,
-            Some(n) => n.div_ceil(self.den),
-            None => self.from.to_ceil(cycles, self.to),
-        }
+    /// A requester at `mhz` MHz (rounded to whole hertz) with one tag.
+    pub fn mhz(mhz: f64) -> Self {
+        Requester::new(mhz_to_clock(mhz))
     }
-    /// The last cycle of the target clock at or before `cycles` of the source clock.
-    #[inline]
-    pub fn floor(&self, cycles: u64) -> u64 {
-        match cycles.checked_mul(self.num) {
-            Some(n) if self.den == 1 => n,
-            Some(n) => n / self.den,
-            None => self.from.to_floor(cycles, self.to),
-        }
+    pub fn with_tags(self, tags: u32) -> Self {
+        Requester { tags, ..self }
     }
 }
 
@@ -152,6 +133,8 @@ pub struct DramSpec {
     pub t: Timings,
     pub mem_clock: Clock,
     pub req_clock: Clock,
+    /// Requester tags accepted (`0..tags`).
+    pub tags: u32,
     /// Requester cycles → memory cycles.
     pub req_to_mem: Ratio,
     /// Memory cycles → requester cycles.
@@ -161,14 +144,31 @@ pub struct DramSpec {
     pub energy: EventEnergy,
 }
 
-fn mhz_to_clock(mhz: f64) -> Clock {
+/// MHz (validated finite and positive) to a clock rounded to whole hertz.
+pub fn mhz_to_clock(mhz: f64) -> Clock {
     Clock::from_hz((mhz * 1e6).round() as u64)
 }
 
 impl DramSpec {
-    /// Validate `config` and resolve it.
-    pub fn new(config: &DramConfig) -> Result<Self, ConfigError> {
+    /// Validate `config` and the requester, and resolve them.
+    pub fn new(config: &DramConfig, requester: Requester) -> Result<Self, ConfigError> {
         config.validate()?;
+        let mem_hz = mhz_to_clock(config.timing.clock_mhz).hz;
+        let req_hz = requester.clock.hz;
+        if req_hz == 0
+            || req_hz > mem_hz.saturating_mul(1024)
+            || mem_hz > req_hz.saturating_mul(1024)
+        {
+            return Err(ConfigError::range(
+                "requester clock",
+                format!("{} MHz", req_hz as f64 / 1e6),
+                format!(
+                    "within a factor of 1024 of the DRAM's timing.clock_mhz = {}",
+                    config.timing.clock_mhz
+                ),
+            ));
+        }
+        rtsim_config::check_range("requester tags", requester.tags, 1, MAX_TAGS)?;
         let o = &config.organisation;
         let bus_bytes = o.bus_width / 8;
         let burst_bytes = bus_bytes * o.burst_length;
@@ -225,7 +225,7 @@ impl DramSpec {
         let constraints = constraints::resolve(|p| t.get(p));
         let mapper = AddressMapper::new(&config.mapping, config.bank_xor, o)?;
         let mem_clock = mhz_to_clock(c.clock_mhz);
-        let req_clock = mhz_to_clock(config.requester_clock_mhz);
+        let req_clock = requester.clock;
         let energy = EventEnergy::new(&config.current, &t, &org, mem_clock)?;
         Ok(DramSpec {
             config: config.clone(),
@@ -233,6 +233,7 @@ impl DramSpec {
             t,
             mem_clock,
             req_clock,
+            tags: requester.tags,
             req_to_mem: Ratio::new(req_clock, mem_clock),
             mem_to_req: Ratio::new(mem_clock, req_clock),
             constraints,
@@ -262,38 +263,5 @@ impl DramSpec {
         let t = &self.t;
         let hit = t.cl + t.burst;
         [hit, t.rcd + hit, t.rp + t.rcd + hit]
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ratio_matches_clock_conversion() {
-        for (a, b) in [
-            (1000, 2000),
-            (500, 800),
-            (733, 1600),
-            (1600, 1600),
-            (2000, 1000),
-        ] {
-            let (x, y) = (Clock::from_mhz(a), Clock::from_mhz(b));
-            let r = Ratio::new(x, y);
-            for c in [
-                0u64,
-                1,
-                2,
-                3,
-                7,
-                1000,
-                123_456_789,
-                u64::MAX / 3,
-                u64::MAX / 2000,
-            ] {
-                assert_eq!(r.ceil(c), x.to_ceil(c, y), "{a}->{b} ceil {c}");
-                assert_eq!(r.floor(c), x.to_floor(c, y), "{a}->{b} floor {c}");
-            }
-        }
     }
 }

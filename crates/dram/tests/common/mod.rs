@@ -5,7 +5,7 @@
 use rtsim_core::{MemCompletion, MemOp, MemRequest, MemoryPort};
 use rtsim_dram::config::preset_config;
 use rtsim_dram::mapping::Location;
-use rtsim_dram::{Dram, DramConfig};
+use rtsim_dram::{Dram, DramConfig, Requester};
 
 /// A preset with checking mode on (every issued command re-validated).
 pub fn config(preset: &str) -> DramConfig {
@@ -14,8 +14,14 @@ pub fn config(preset: &str) -> DramConfig {
     c
 }
 
+/// A DRAM serving a 1 GHz requester (TRaX's core).
 pub fn dram(c: &DramConfig) -> Dram {
-    Dram::new(c).unwrap()
+    dram_at(c, 1000.0)
+}
+
+/// A DRAM serving a requester clocked at `mhz`.
+pub fn dram_at(c: &DramConfig, mhz: f64) -> Dram {
+    Dram::new(c, Requester::mhz(mhz)).unwrap()
 }
 
 /// Byte address of a location.
@@ -37,6 +43,7 @@ pub fn req(id: u64, addr: u64, op: MemOp, arrival: u64) -> MemRequest {
         addr,
         op,
         arrival,
+        tag: 0,
     }
 }
 

@@ -1,0 +1,689 @@
+//! [`Hierarchy`]: the timed cache tree — banks, hit latencies, MSHRs, write buffers — over a
+//! memory model behind [`MemoryPort`], simulated event by event in the chip's clock.
+//!
+//! # Interface
+//!
+//! Requests `(cycle, l1, addr, op, tag)` are [`submit`](Hierarchy::submit)ted in nondecreasing
+//! cycle order (an earlier cycle is [`HierarchyError::Past`], never a panic). The L1 answers at
+//! once:
+//!
+//! - [`Outcome::Done`]: a read hit, or a write the L1 accepted (write-around writes are posted;
+//!   write-back write hits), with the cycle its data is ready (`cycle + hit_latency`);
+//! - [`Outcome::Pending`]: a miss; its [`Completion`] comes later from
+//!   [`drain_completions`](Hierarchy::drain_completions), ready when the line arrives;
+//! - [`Outcome::Busy`]: refused — the access's bank already served an access this cycle, every
+//!   MSHR is busy, or the write buffer is full. Back-pressure: nothing happened, and the
+//!   requester offers it again at `retry_at` (no earlier cycle can succeed).
+//!
+//! [`next_event`](Hierarchy::next_event) is the next cycle at which anything happens inside
+//! (the caches' events or the memory's), so a chip jumps over idle time with
+//! [`advance_to`](Hierarchy::advance_to); advancing cycle by cycle gives identical results (a
+//! test checks it). Events at a cycle are handled before requests submitted at that cycle.
+//!
+//! # Timing rules
+//!
+//! - **Banks.** A cache of `banks` banks (a power of two) sends an access to bank
+//!   `line_address mod banks` — the address bits just above the line offset — and each bank
+//!   does one lookup per cycle. At an L1 a second access to a busy bank is refused
+//!   (`Busy`, retry next cycle); at an inner cache (an L2) it waits for the bank's next free
+//!   cycle. Each such conflict is counted once per attempt.
+//! - **Hits** are ready `hit_latency` cycles after the lookup.
+//! - **Misses** allocate an MSHR at lookup; the request reaches the next level `hit_latency`
+//!   cycles later (the tag check). A miss to a line already in flight merges into its MSHR
+//!   (counted) and completes with it. With every MSHR busy an L1 refuses the access and an inner
+//!   cache queues it until an MSHR frees (each try counted as an MSHR-full stall). When the line
+//!   arrives it is installed (evicting by the replacement policy) and every merged access
+//!   completes in that cycle; an inner cache forwards the line to the waiting children in the
+//!   same cycle.
+//! - **Writes** follow the write policy. Write-around: the write updates a hit line and goes to
+//!   the next level through the write buffer, `hit_latency` later; the buffer entry frees when
+//!   the next level accepts the write (an inner cache: when it performs it; memory: when the
+//!   controller queues it). Write-back: a hit marks the line dirty; a miss allocates like a read
+//!   and the line arrives dirty; a dirty victim goes through the write buffer. Each MSHR of a
+//!   write-back cache reserves a write-buffer entry for its victim, so a fill never finds the
+//!   buffer full.
+//! - **Memory.** Caches whose parent is memory send line requests through the port, tagged by
+//!   their index among such caches (per-L2 DRAM stats). A full DRAM queue is retried at the
+//!   port's retry hint. The cache line must equal the memory's line size (checked at build).
+//!
+//! Fixed order everywhere: events by (cycle, insertion), MSHR targets in arrival order,
+//! blocked accesses first-come first-served, memory completions in the port's order.
+
+use crate::cache::Cache;
+use crate::config::WritePolicy;
+use crate::stats::CacheStats;
+use crate::topology::{Parent, Topology};
+use rtsim_config::ConfigError;
+use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
+use rtsim_sim::{Component, EventError, EventQueue};
+use std::collections::{BTreeMap, VecDeque};
+
+/// One access by a requester.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Request {
+    /// Chip cycle of the access; nondecreasing from one submit to the next.
+    pub cycle: u64,
+    /// Which leaf cache (index into [`Topology::leaves`]).
+    pub l1: usize,
+    pub addr: u64,
+    pub op: MemOp,
+    /// Requester's tag, returned in the completion (a TP id, a ray slot …).
+    pub tag: u64,
+}
+
+/// Why an access was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BusyCause {
+    Bank,
+    Mshr,
+    WriteBuffer,
+}
+
+/// The L1's immediate answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// Done: data (or the write's acceptance) ready at `ready`.
+    Done { ready: u64, hit: bool },
+    /// A miss: a [`Completion`] follows.
+    Pending,
+    /// Refused (back-pressure); offer it again at `retry_at`.
+    Busy { retry_at: u64, cause: BusyCause },
+}
+
+/// A finished miss.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Completion {
+    pub tag: u64,
+    pub l1: usize,
+    pub addr: u64,
+    pub op: MemOp,
+    /// Cycle it was submitted.
+    pub cycle: u64,
+    /// Cycle its data is ready.
+    pub ready: u64,
+}
+
+/// Misuse of the hierarchy, or a memory error that is not back-pressure.
+#[derive(Debug, thiserror::Error)]
+pub enum HierarchyError {
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(
+        "request at cycle {cycle} submitted after cycle {now}: requests must come in nondecreasing cycle order"
+    )]
+    Past { cycle: u64, now: u64 },
+    #[error("no L1 {l1}: the hierarchy has {count}")]
+    NoSuchL1 { l1: usize, count: usize },
+    #[error("memory: {0}")]
+    Memory(MemError),
+    #[error(transparent)]
+    Event(#[from] EventError),
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Target {
+    Requester {
+        tag: u64,
+        l1: usize,
+        addr: u64,
+        op: MemOp,
+        cycle: u64,
+    },
+    Child(usize),
+}
+
+#[derive(Clone, Debug, Default)]
+struct Mshr {
+    start: u64,
+    dirty: bool,
+    targets: Vec<Target>,
+}
+
+/// An access arriving at an inner cache from a child.
+#[derive(Clone, Copy, Debug)]
+struct Op {
+    addr: u64,
+    write: bool,
+    child: usize,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Ev {
+    Access { node: usize, op: Op, banked: bool },
+    Fill { node: usize, addr: u64 },
+    MemSend { node: usize, addr: u64, op: MemOp },
+    Retry { node: usize },
+}
+
+#[derive(Debug)]
+struct Node {
+    cache: Cache,
+    parent: Parent,
+    latency: u64,
+    bank_mask: u64,
+    bank_free: Vec<u64>,
+    mshrs: Vec<Mshr>,
+    free_mshrs: Vec<usize>,
+    in_flight: BTreeMap<u64, usize>,
+    wb_used: u32,
+    wb_cap: u32,
+    write_back: bool,
+    blocked: VecDeque<Op>,
+    retry_pending: bool,
+    mem_tag: u32,
+}
+
+impl Node {
+    fn line(&self, addr: u64) -> u64 {
+        self.cache.line_of(addr)
+    }
+    fn bank(&self, addr: u64) -> usize {
+        (self.line(addr) & self.bank_mask) as usize
+    }
+    fn mshrs_used(&self) -> usize {
+        self.mshrs.len() - self.free_mshrs.len()
+    }
+    /// An MSHR is free, and under write-back so is a write-buffer entry for its victim.
+    fn can_allocate(&self) -> bool {
+        !self.free_mshrs.is_empty()
+            && (!self.write_back
+                || self.wb_used as usize + self.mshrs_used() < self.wb_cap as usize)
+    }
+    fn allocate(&mut self, t: u64, addr: u64, dirty: bool, target: Option<Target>) {
+        let i = self.free_mshrs.pop().expect("checked by can_allocate");
+        let m = &mut self.mshrs[i];
+        m.start = t;
+        m.dirty = dirty;
+        m.targets.clear();
+        m.targets.extend(target);
+        let line = self.line(addr);
+        self.in_flight.insert(line, i);
+        let used = self.mshrs_used() as u64;
+        let s = &mut self.cache.stats;
+        s.mshr_peak = s.mshr_peak.max(used);
+    }
+    fn merge(&mut self, addr: u64, dirty: bool, target: Option<Target>) -> bool {
+        let line = self.line(addr);
+        let Some(&i) = self.in_flight.get(&line) else {
+            return false;
+        };
+        let m = &mut self.mshrs[i];
+        m.dirty |= dirty;
+        m.targets.extend(target);
+        self.cache.stats.mshr_merges += 1;
+        true
+    }
+}
+
+/// The timed cache tree over a memory model `M`.
+#[derive(Debug)]
+pub struct Hierarchy<M> {
+    topology: Topology,
+    nodes: Vec<Node>,
+    memory: M,
+    events: EventQueue<Ev>,
+    completions: Vec<Completion>,
+    mem_buf: Vec<MemCompletion>,
+    now: u64,
+    memory_tags: u32,
+}
+
+/// What a [`Hierarchy`] is built from (its [`Component::Config`]).
+#[derive(Debug)]
+pub struct HierarchyParts<M> {
+    pub topology: Topology,
+    pub memory: M,
+}
+
+/// Stats of every cache at the end of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HierarchyStats {
+    /// Per node: (name, level, stats).
+    pub caches: Vec<(String, u32, CacheStats)>,
+}
+
+impl<M: MemoryPort> Hierarchy<M> {
+    /// Build over `memory`, whose requester clock must be the chip clock the requests use. The
+    /// caches that talk to memory must use its line size (an error names both keys otherwise).
+    pub fn new(topology: Topology, memory: M) -> Result<Self, HierarchyError> {
+        if let Some((bytes, name)) = topology.memory_line_bytes()? {
+            let mem = memory.line_bytes();
+            if bytes != mem {
+                return Err(ConfigError::key(
+                    &format!("{name}.line_bytes"),
+                    format!(
+                        "= {bytes} must equal the DRAM's `organisation.line_bytes` = {mem} (one \
+                         cache line is one memory request)"
+                    ),
+                )
+                .into());
+            }
+        }
+        let caches = topology.build_caches()?;
+        let mut memory_tags = 0;
+        let nodes = caches
+            .into_iter()
+            .zip(topology.nodes())
+            .map(|(cache, n)| {
+                let c = &n.cache;
+                let mem_tag = memory_tags;
+                if n.parent == Parent::Memory {
+                    memory_tags += 1;
+                }
+                Node {
+                    cache,
+                    parent: n.parent,
+                    latency: c.hit_latency.into(),
+                    bank_mask: u64::from(c.banks - 1),
+                    bank_free: vec![0; c.banks as usize],
+                    mshrs: vec![Mshr::default(); c.mshrs as usize],
+                    free_mshrs: (0..c.mshrs as usize).rev().collect(),
+                    in_flight: BTreeMap::new(),
+                    wb_used: 0,
+                    wb_cap: c.write_buffer,
+                    write_back: c.write_policy == WritePolicy::WriteBack,
+                    blocked: VecDeque::new(),
+                    retry_pending: false,
+                    mem_tag,
+                }
+            })
+            .collect();
+        Ok(Hierarchy {
+            topology,
+            nodes,
+            memory,
+            events: EventQueue::with_capacity(1024),
+            completions: Vec::new(),
+            mem_buf: Vec::new(),
+            now: 0,
+            memory_tags,
+        })
+    }
+
+    pub fn topology(&self) -> &Topology {
+        &self.topology
+    }
+    pub fn memory(&self) -> &M {
+        &self.memory
+    }
+    pub fn memory_mut(&mut self) -> &mut M {
+        &mut self.memory
+    }
+    pub fn into_memory(self) -> M {
+        self.memory
+    }
+    /// Requester tags the memory must accept (one per cache that talks to it).
+    pub fn memory_tags(&self) -> u32 {
+        self.memory_tags
+    }
+    /// Counters of cache node `n`.
+    pub fn stats(&self, n: usize) -> &CacheStats {
+        &self.nodes[n].cache.stats
+    }
+    /// The last cycle advanced to or submitted at.
+    pub fn now(&self) -> u64 {
+        self.now
+    }
+
+    /// The next cycle at which anything happens, `None` when all is idle.
+    pub fn next_event(&self) -> Option<u64> {
+        match (self.events.next_cycle(), self.memory.next_event()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Handle everything due up to and including `cycle`.
+    pub fn advance_to(&mut self, cycle: u64) -> Result<(), HierarchyError> {
+        while let Some(t) = self.next_event().filter(|&t| t <= cycle) {
+            self.step(t)?;
+        }
+        self.now = self.now.max(cycle);
+        Ok(())
+    }
+
+    /// Run until nothing is in flight; returns the last cycle with an event.
+    pub fn drain(&mut self) -> Result<u64, HierarchyError> {
+        while let Some(t) = self.next_event() {
+            self.step(t)?;
+            self.now = self.now.max(t);
+        }
+        Ok(self.now)
+    }
+
+    /// Move finished misses into `out`, in the order they finished.
+    pub fn drain_completions(&mut self, out: &mut Vec<Completion>) {
+        out.append(&mut self.completions);
+    }
+
+    /// Offer one access (see the module docs).
+    pub fn submit(&mut self, r: Request) -> Result<Outcome, HierarchyError> {
+        if r.cycle < self.now {
+            return Err(HierarchyError::Past {
+                cycle: r.cycle,
+                now: self.now,
+            });
+        }
+        let Some(&n) = self.topology.leaves().get(r.l1) else {
+            return Err(HierarchyError::NoSuchL1 {
+                l1: r.l1,
+                count: self.topology.leaves().len(),
+            });
+        };
+        self.advance_to(r.cycle)?;
+        let t = r.cycle;
+        let node = &mut self.nodes[n];
+        let b = node.bank(r.addr);
+        if node.bank_free[b] > t {
+            node.cache.stats.bank_conflicts += 1;
+            return Ok(Outcome::Busy {
+                retry_at: node.bank_free[b],
+                cause: BusyCause::Bank,
+            });
+        }
+        let lat = node.latency;
+        let target = Target::Requester {
+            tag: r.tag,
+            l1: r.l1,
+            addr: r.addr,
+            op: r.op,
+            cycle: t,
+        };
+        let write = r.op == MemOp::Write;
+        let outcome = if write && !node.write_back {
+            // Write-around: posted through the write buffer.
+            if node.wb_used >= node.wb_cap {
+                node.cache.stats.write_buffer_full_stalls += 1;
+                return Ok(self.busy(t, BusyCause::WriteBuffer));
+            }
+            let hit = node.cache.lookup(r.addr, r.op);
+            node.cache.stats.write_throughs += 1;
+            node.wb_used += 1;
+            self.send_down(n, t + lat, r.addr, MemOp::Write)?;
+            Outcome::Done {
+                ready: t + lat,
+                hit,
+            }
+        } else if node.cache.contains(r.addr) {
+            node.cache.lookup(r.addr, r.op);
+            Outcome::Done {
+                ready: t + lat,
+                hit: true,
+            }
+        } else if node.in_flight.contains_key(&node.line(r.addr)) {
+            node.cache.lookup(r.addr, r.op);
+            node.merge(r.addr, write, Some(target));
+            Outcome::Pending
+        } else if node.can_allocate() {
+            node.cache.lookup(r.addr, r.op);
+            node.allocate(t, r.addr, write, Some(target));
+            self.send_down(n, t + lat, r.addr, MemOp::Read)?;
+            Outcome::Pending
+        } else {
+            node.cache.stats.mshr_full_stalls += 1;
+            return Ok(self.busy(t, BusyCause::Mshr));
+        };
+        self.nodes[n].bank_free[b] = t + 1;
+        Ok(outcome)
+    }
+
+    /// A refusal for lack of an MSHR or a write-buffer entry: nothing can free one before the
+    /// next event.
+    fn busy(&self, t: u64, cause: BusyCause) -> Outcome {
+        Outcome::Busy {
+            retry_at: self.next_event().unwrap_or(t + 1).max(t + 1),
+            cause,
+        }
+    }
+
+    fn push(&mut self, t: u64, ev: Ev) -> Result<(), HierarchyError> {
+        Ok(self.events.push(t, ev)?)
+    }
+
+    /// Send a read or write from node `n` towards its parent, arriving at `at`.
+    fn send_down(&mut self, n: usize, at: u64, addr: u64, op: MemOp) -> Result<(), HierarchyError> {
+        match self.nodes[n].parent {
+            Parent::Cache(p) => self.push(
+                at,
+                Ev::Access {
+                    node: p,
+                    op: Op {
+                        addr,
+                        write: op == MemOp::Write,
+                        child: n,
+                    },
+                    banked: false,
+                },
+            ),
+            Parent::Memory => self.push(at, Ev::MemSend { node: n, addr, op }),
+        }
+    }
+
+    fn schedule_retry(&mut self, t: u64, n: usize) -> Result<(), HierarchyError> {
+        let node = &mut self.nodes[n];
+        if node.blocked.is_empty() || node.retry_pending {
+            return Ok(());
+        }
+        node.retry_pending = true;
+        self.push(t, Ev::Retry { node: n })
+    }
+
+    /// A write-buffer entry of `n` is free again.
+    fn free_write_slot(&mut self, t: u64, n: usize) -> Result<(), HierarchyError> {
+        self.nodes[n].wb_used -= 1;
+        self.schedule_retry(t, n)
+    }
+
+    /// One cycle with events: the caches' events, then the memory's completions.
+    fn step(&mut self, t: u64) -> Result<(), HierarchyError> {
+        while let Some((at, ev)) = self.events.pop_due(t) {
+            self.handle(at, ev)?;
+        }
+        if self.memory.next_event().is_some_and(|m| m <= t) {
+            self.memory.advance_to(t);
+            let mut buf = std::mem::take(&mut self.mem_buf);
+            self.memory.drain_completions(&mut buf);
+            for c in buf.drain(..) {
+                if c.op == MemOp::Read {
+                    self.fill(t, c.id as usize, c.addr)?;
+                }
+            }
+            self.mem_buf = buf;
+            while let Some((at, ev)) = self.events.pop_due(t) {
+                self.handle(at, ev)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn handle(&mut self, t: u64, ev: Ev) -> Result<(), HierarchyError> {
+        match ev {
+            Ev::Access { node, op, banked } => self.inner_access(t, node, op, banked),
+            Ev::Fill { node, addr } => self.fill(t, node, addr),
+            Ev::MemSend { node, addr, op } => self.mem_send(t, node, addr, op),
+            Ev::Retry { node } => {
+                self.nodes[node].retry_pending = false;
+                let ops = std::mem::take(&mut self.nodes[node].blocked);
+                for op in ops {
+                    self.inner_access(t, node, op, false)?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// An access from child `op.child` at inner cache `n`.
+    fn inner_access(
+        &mut self,
+        t: u64,
+        n: usize,
+        op: Op,
+        banked: bool,
+    ) -> Result<(), HierarchyError> {
+        let node = &mut self.nodes[n];
+        if !banked {
+            let b = node.bank(op.addr);
+            let start = node.bank_free[b].max(t);
+            node.bank_free[b] = start + 1;
+            if start > t {
+                node.cache.stats.bank_conflicts += 1;
+                return self.push(
+                    start,
+                    Ev::Access {
+                        node: n,
+                        op,
+                        banked: true,
+                    },
+                );
+            }
+        }
+        let lat = node.latency;
+        let mem_op = if op.write { MemOp::Write } else { MemOp::Read };
+        if op.write && !node.write_back {
+            if node.wb_used >= node.wb_cap {
+                node.cache.stats.write_buffer_full_stalls += 1;
+                node.blocked.push_back(op);
+                return Ok(());
+            }
+            node.cache.lookup(op.addr, mem_op);
+            node.cache.stats.write_throughs += 1;
+            node.wb_used += 1;
+            self.send_down(n, t + lat, op.addr, MemOp::Write)?;
+        } else if node.cache.contains(op.addr) {
+            node.cache.lookup(op.addr, mem_op);
+            if !op.write {
+                self.push(
+                    t + lat,
+                    Ev::Fill {
+                        node: op.child,
+                        addr: op.addr,
+                    },
+                )?;
+            }
+        } else {
+            let target = (!op.write).then_some(Target::Child(op.child));
+            if node.in_flight.contains_key(&node.line(op.addr)) {
+                node.cache.lookup(op.addr, mem_op);
+                node.merge(op.addr, op.write, target);
+            } else if node.can_allocate() {
+                node.cache.lookup(op.addr, mem_op);
+                node.allocate(t, op.addr, op.write, target);
+                self.send_down(n, t + lat, op.addr, MemOp::Read)?;
+            } else {
+                node.cache.stats.mshr_full_stalls += 1;
+                node.blocked.push_back(op);
+                return Ok(());
+            }
+        }
+        if op.write {
+            // The child's write is accepted: its write-buffer entry frees.
+            self.free_write_slot(t, op.child)?;
+        }
+        Ok(())
+    }
+
+    /// The line of `addr` arrives at node `n`.
+    fn fill(&mut self, t: u64, n: usize, addr: u64) -> Result<(), HierarchyError> {
+        let node = &mut self.nodes[n];
+        let line = node.line(addr);
+        let Some(i) = node.in_flight.remove(&line) else {
+            // Every fill answers an MSHR of this node; anything else is a bug.
+            unreachable!("fill of line {line:#x} at cache {n} with no MSHR");
+        };
+        let m = std::mem::take(&mut node.mshrs[i]);
+        let evicted = node.cache.fill(addr, m.dirty);
+        node.cache.stats.miss_latency.record(t - m.start);
+        let lat = node.latency;
+        if let Some(e) = evicted.filter(|e| e.dirty) {
+            // The reserved entry (write-back) takes the victim.
+            node.wb_used += 1;
+            self.send_down(n, t + lat, e.addr, MemOp::Write)?;
+        }
+        for target in &m.targets {
+            match *target {
+                Target::Requester {
+                    tag,
+                    l1,
+                    addr,
+                    op,
+                    cycle,
+                } => self.completions.push(Completion {
+                    tag,
+                    l1,
+                    addr,
+                    op,
+                    cycle,
+                    ready: t,
+                }),
+                Target::Child(c) => self.push(t, Ev::Fill { node: c, addr })?,
+            }
+        }
+        // Give the targets' storage back to the free MSHR.
+        let node = &mut self.nodes[n];
+        node.mshrs[i] = Mshr {
+            targets: m.targets,
+            ..Mshr::default()
+        };
+        node.free_mshrs.push(i);
+        self.schedule_retry(t, n)
+    }
+
+    /// Offer a line request of node `n` to memory, arriving at `t`.
+    fn mem_send(&mut self, t: u64, n: usize, addr: u64, op: MemOp) -> Result<(), HierarchyError> {
+        if t > 0 && self.memory.now().is_none_or(|m| m < t - 1) {
+            self.memory.advance_to(t - 1);
+        }
+        let req = MemRequest {
+            id: n as u64,
+            addr,
+            op,
+            arrival: t,
+            tag: self.nodes[n].mem_tag,
+        };
+        match self.memory.try_enqueue(req) {
+            Ok(()) => {
+                if op == MemOp::Write {
+                    self.free_write_slot(t, n)?;
+                }
+                Ok(())
+            }
+            Err(MemError::Full(q)) => self.push(q.retry_at, Ev::MemSend { node: n, addr, op }),
+            Err(e) => Err(HierarchyError::Memory(e)),
+        }
+    }
+
+    /// Every cache's counters, with its name and level.
+    pub fn all_stats(&self) -> HierarchyStats {
+        HierarchyStats {
+            caches: self
+                .topology
+                .nodes()
+                .iter()
+                .zip(&self.nodes)
+                .map(|(t, n)| (t.name.clone(), t.level, n.cache.stats.clone()))
+                .collect(),
+        }
+    }
+}
+
+impl<M: MemoryPort> Component for Hierarchy<M> {
+    type Config = HierarchyParts<M>;
+    type Stats = HierarchyStats;
+    type Error = HierarchyError;
+
+    fn build(parts: HierarchyParts<M>) -> Result<Self, HierarchyError> {
+        Hierarchy::new(parts.topology, parts.memory)
+    }
+    fn next_event(&self) -> Option<u64> {
+        Hierarchy::next_event(self)
+    }
+    fn advance_to(&mut self, cycle: u64) -> Result<(), HierarchyError> {
+        Hierarchy::advance_to(self, cycle)
+    }
+    fn finish(mut self, end: u64) -> HierarchyStats {
+        // Whatever is still in flight is finished first, so that every access is counted.
+        let _ = self.drain();
+        let _ = Hierarchy::advance_to(&mut self, end);
+        self.all_stats()
+    }
+}

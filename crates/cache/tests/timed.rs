@@ -1,0 +1,427 @@
+//! The timed hierarchy: latencies, banks, MSHR merging and back-pressure, agreement with the
+//! functional model, DRAM behind it, and event skipping equal to ticking every cycle.
+
+use rtsim_cache::{
+    BusyCause, CacheConfig, CacheLevel, Completion, FixedLatency, FunctionalHierarchy, Hierarchy,
+    HierarchyError, Node, Outcome, Parent, Replacement, Request, Topology, WritePolicy,
+};
+use rtsim_core::{MemOp, MemoryPort, Pcg32};
+use rtsim_dram::config::preset_config;
+use rtsim_dram::{Dram, Requester};
+
+fn two_level(l1s: u32) -> CacheConfig {
+    CacheConfig {
+        l1_count: l1s,
+        ..CacheConfig::default()
+    }
+}
+
+fn fixed(h: &CacheConfig, latency: u64) -> Hierarchy<FixedLatency> {
+    let t = Topology::from_config(h).unwrap();
+    Hierarchy::new(t, FixedLatency::new(latency, 64, 64, 8)).unwrap()
+}
+
+fn req(cycle: u64, l1: usize, addr: u64, op: MemOp, tag: u64) -> Request {
+    Request {
+        cycle,
+        l1,
+        addr,
+        op,
+        tag,
+    }
+}
+
+fn run_dry<M: MemoryPort>(h: &mut Hierarchy<M>) -> Vec<Completion> {
+    h.drain().unwrap();
+    let mut out = Vec::new();
+    h.drain_completions(&mut out);
+    out
+}
+
+#[test]
+fn latencies_of_hits_and_misses() {
+    let mut h = fixed(&two_level(1), 100);
+    // Cold: L1 lookup 1, L2 lookup 3, memory 100.
+    assert_eq!(
+        h.submit(req(10, 0, 0x1000, MemOp::Read, 7)).unwrap(),
+        Outcome::Pending
+    );
+    let c = run_dry(&mut h);
+    assert_eq!(c.len(), 1);
+    assert_eq!((c[0].tag, c[0].ready), (7, 10 + 1 + 3 + 100));
+    // L1 hit: ready one cycle later.
+    assert_eq!(
+        h.submit(req(500, 0, 0x1008, MemOp::Read, 8)).unwrap(),
+        Outcome::Done {
+            ready: 501,
+            hit: true
+        }
+    );
+    // L1 miss, L2 hit: 1 + 3. (16 KB apart: same L1 set, different L2 set.)
+    h.submit(req(600, 0, 0x1000 + 16384, MemOp::Read, 9))
+        .unwrap();
+    run_dry(&mut h);
+    assert_eq!(
+        h.submit(req(1000, 0, 0x1000, MemOp::Read, 10)).unwrap(),
+        Outcome::Pending
+    );
+    let c = run_dry(&mut h);
+    assert_eq!(c[0].ready, 1000 + 1 + 3);
+    let l2 = h.stats(1);
+    assert_eq!((l2.reads, l2.read_hits), (3, 1));
+}
+
+#[test]
+fn misses_to_a_line_in_flight_merge() {
+    let mut h = fixed(&two_level(2), 50);
+    // Same line from one L1 in two cycles, and from the other L1: one memory read.
+    for (t, l1) in [(0u64, 0usize), (1, 0), (2, 1)] {
+        assert_eq!(
+            h.submit(req(t, l1, 0x40, MemOp::Read, t)).unwrap(),
+            Outcome::Pending
+        );
+    }
+    let c = run_dry(&mut h);
+    assert_eq!(c.len(), 3);
+    assert_eq!(c[0].ready, c[1].ready, "merged misses complete together");
+    assert_eq!(h.stats(0).mshr_merges, 1);
+    assert_eq!(
+        h.stats(2).mshr_merges,
+        1,
+        "the L2 merges the second L1's miss"
+    );
+    assert_eq!(h.memory().accepted[0], 1);
+    assert_eq!(h.stats(2).miss_latency.count, 1);
+}
+
+#[test]
+fn banks_mshrs_and_write_buffers_push_back() {
+    let mut cfg = two_level(1);
+    cfg.l1.mshrs = 2;
+    cfg.l1.write_buffer = 1;
+    cfg.l1.banks = 4;
+    let mut h = fixed(&cfg, 50);
+    // Lines 0 and 4 share bank 0 (line mod 4); line 1 is bank 1.
+    assert_eq!(
+        h.submit(req(5, 0, 0, MemOp::Read, 0)).unwrap(),
+        Outcome::Pending
+    );
+    assert_eq!(
+        h.submit(req(5, 0, 4 * 64, MemOp::Read, 1)).unwrap(),
+        Outcome::Busy {
+            retry_at: 6,
+            cause: BusyCause::Bank
+        }
+    );
+    assert_eq!(
+        h.submit(req(5, 0, 64, MemOp::Read, 2)).unwrap(),
+        Outcome::Pending
+    );
+    // Both MSHRs busy: a third line is refused until a fill frees one.
+    let Outcome::Busy {
+        retry_at,
+        cause: BusyCause::Mshr,
+    } = h.submit(req(6, 0, 2 * 64, MemOp::Read, 3)).unwrap()
+    else {
+        panic!("third miss accepted with two MSHRs");
+    };
+    assert!(retry_at > 6);
+    // A hit-free merge still works with MSHRs full.
+    assert_eq!(
+        h.submit(req(7, 0, 8, MemOp::Read, 4)).unwrap(),
+        Outcome::Pending
+    );
+    // Write buffer of one: the second posted write is refused.
+    assert!(matches!(
+        h.submit(req(8, 0, 3 * 64, MemOp::Write, 5)).unwrap(),
+        Outcome::Done {
+            ready: 9,
+            hit: false
+        }
+    ));
+    assert!(matches!(
+        h.submit(req(8, 0, 5 * 64, MemOp::Write, 6)).unwrap(),
+        Outcome::Busy {
+            cause: BusyCause::WriteBuffer,
+            ..
+        }
+    ));
+    let s = h.stats(0);
+    assert_eq!(
+        (
+            s.bank_conflicts,
+            s.mshr_full_stalls,
+            s.write_buffer_full_stalls
+        ),
+        (1, 1, 1)
+    );
+    assert_eq!(s.accesses(), 4, "refused attempts are not accesses");
+    assert_eq!(s.mshr_peak, 2);
+    // Later, everything is accepted again.
+    let mut t = retry_at;
+    while let Outcome::Busy { retry_at, .. } = h.submit(req(t, 0, 2 * 64, MemOp::Read, 3)).unwrap()
+    {
+        t = retry_at;
+    }
+    assert_eq!(run_dry(&mut h).len(), 4);
+}
+
+#[test]
+fn misuse_is_an_error() {
+    let mut h = fixed(&two_level(1), 10);
+    h.submit(req(100, 0, 0, MemOp::Read, 0)).unwrap();
+    assert!(matches!(
+        h.submit(req(99, 0, 0, MemOp::Read, 0)),
+        Err(HierarchyError::Past {
+            cycle: 99,
+            now: 100
+        })
+    ));
+    assert!(matches!(
+        h.submit(req(100, 3, 0, MemOp::Read, 0)),
+        Err(HierarchyError::NoSuchL1 { l1: 3, count: 1 })
+    ));
+}
+
+#[test]
+fn line_size_must_match_the_dram() {
+    let mut cfg = two_level(1);
+    cfg.l1.line_bytes = 128;
+    cfg.l2.line_bytes = 128;
+    let dram = Dram::new(
+        &preset_config("gddr5-trax").unwrap(),
+        Requester::mhz(1000.0),
+    )
+    .unwrap();
+    let e = Hierarchy::new(Topology::from_config(&cfg).unwrap(), dram)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("l2.line_bytes") && e.contains("organisation.line_bytes") && e.contains("64"),
+        "{e}"
+    );
+}
+
+fn random_trace(n: usize, seed: u64, l1s: usize, span: u64, spacing: u64) -> Vec<Request> {
+    let mut rng = Pcg32::new(seed, 3);
+    let mut t = 0;
+    (0..n)
+        .map(|i| {
+            t += rng.below(spacing as u32 + 1) as u64;
+            let op = if rng.below(4) == 0 {
+                MemOp::Write
+            } else {
+                MemOp::Read
+            };
+            req(
+                t,
+                rng.below(l1s as u32) as usize,
+                rng.below(span as u32) as u64 * 8,
+                op,
+                i as u64,
+            )
+        })
+        .collect()
+}
+
+/// Issue requests in order at their cycles (or later when refused), advancing time either by
+/// jumping to the next event or cycle by cycle. Returns completions and the refusal count.
+fn drive<M: MemoryPort>(
+    h: &mut Hierarchy<M>,
+    reqs: &[Request],
+    tick: bool,
+) -> (Vec<Completion>, Vec<Outcome>) {
+    let mut out = Vec::new();
+    let mut outcomes = Vec::new();
+    let mut t = 0;
+    for r in reqs {
+        let mut r = *r;
+        r.cycle = r.cycle.max(t);
+        loop {
+            if tick {
+                while t < r.cycle {
+                    h.advance_to(t).unwrap();
+                    t += 1;
+                }
+            }
+            let o = h.submit(r).unwrap();
+            outcomes.push(o);
+            match o {
+                Outcome::Busy { retry_at, .. } => r.cycle = retry_at,
+                _ => break,
+            }
+        }
+        t = r.cycle;
+        h.drain_completions(&mut out);
+    }
+    if tick {
+        while h.next_event().is_some() {
+            h.advance_to(t).unwrap();
+            t += 1;
+        }
+    } else {
+        h.drain().unwrap();
+    }
+    h.drain_completions(&mut out);
+    (out, outcomes)
+}
+
+fn trax_on_dram(l1s: u32) -> Hierarchy<Dram> {
+    let mut cfg = two_level(l1s);
+    cfg.l1.mshrs = 4;
+    cfg.l2.mshrs = 16;
+    cfg.l2.size_bytes = 64 * 1024;
+    let t = Topology::from_config(&cfg).unwrap();
+    let mut d = preset_config("gddr5-trax").unwrap();
+    d.controller.read_queue = 4;
+    let dram = Dram::new(&d, Requester::mhz(1000.0).with_tags(1)).unwrap();
+    Hierarchy::new(t, dram).unwrap()
+}
+
+/// SGRT per core: four TRV L1s (16 KB 2-way) over a 128 KB 2-way 8-bank L2 (hit 20), plus an
+/// IST L1 (128 KB 4-way) straight to memory; four cores on LPDDR3 at 500 MHz : 800 MHz.
+fn sgrt(cores: usize) -> Hierarchy<Dram> {
+    let trv = CacheLevel {
+        size_bytes: 16 * 1024,
+        ways: 2,
+        ..CacheLevel::trax_l1()
+    };
+    let l2 = CacheLevel {
+        size_bytes: 128 * 1024,
+        ways: 2,
+        banks: 8,
+        hit_latency: 20,
+        ..CacheLevel::trax_l2()
+    };
+    let ist = CacheLevel {
+        size_bytes: 128 * 1024,
+        ways: 4,
+        ..CacheLevel::trax_l1()
+    };
+    let mut nodes = Vec::new();
+    for core in 0..cores {
+        let l2_index = cores * 5 + core;
+        for _ in 0..4 {
+            nodes.push(Node {
+                name: "trv-l1".into(),
+                level: 1,
+                cache: trv.clone(),
+                parent: Parent::Cache(l2_index),
+            });
+        }
+        nodes.push(Node {
+            name: "ist-l1".into(),
+            level: 1,
+            cache: ist.clone(),
+            parent: Parent::Memory,
+        });
+    }
+    for _ in 0..cores {
+        nodes.push(Node {
+            name: "l2".into(),
+            level: 2,
+            cache: l2.clone(),
+            parent: Parent::Memory,
+        });
+    }
+    let t = Topology::new(nodes, 1).unwrap();
+    let d = preset_config("lpddr3-1600").unwrap();
+    let dram = Dram::new(&d, Requester::mhz(500.0).with_tags(2 * cores as u32)).unwrap();
+    let h = Hierarchy::new(t, dram).unwrap();
+    assert_eq!(h.memory_tags(), 2 * cores as u32);
+    h
+}
+
+#[test]
+fn event_skipping_equals_ticking_every_cycle() {
+    for (name, make, l1s) in [
+        (
+            "trax",
+            (|| trax_on_dram(4)) as fn() -> Hierarchy<Dram>,
+            4usize,
+        ),
+        ("sgrt", || sgrt(2), 10),
+    ] {
+        let reqs = random_trace(3000, 11, l1s, 1 << 16, 3);
+        let (mut a, mut b) = (make(), make());
+        let (ca, oa) = drive(&mut a, &reqs, false);
+        let (cb, ob) = drive(&mut b, &reqs, true);
+        assert_eq!(oa, ob, "{name}: outcomes");
+        assert_eq!(ca, cb, "{name}: completions");
+        assert_eq!(a.all_stats(), b.all_stats(), "{name}: cache stats");
+        assert_eq!(
+            a.memory_mut().stats(),
+            b.memory_mut().stats(),
+            "{name}: DRAM stats"
+        );
+        let pending = oa.iter().filter(|o| matches!(o, Outcome::Pending)).count();
+        assert_eq!(ca.len(), pending, "{name}: every miss completes");
+        let s = a.all_stats();
+        let merges: u64 = s.caches.iter().map(|c| c.2.mshr_merges).sum();
+        let refusals = oa
+            .iter()
+            .filter(|o| matches!(o, Outcome::Busy { .. }))
+            .count();
+        assert!(
+            merges > 0 && refusals > 0,
+            "{name}: the trace exercises merges ({merges}) and back-pressure ({refusals})"
+        );
+        for c in &ca {
+            assert!(c.ready > c.cycle);
+        }
+    }
+}
+
+/// Accesses far apart in time neither merge nor wait: the timed hierarchy then sees exactly
+/// the functional model's hits, misses, evictions and write-backs at every level.
+#[test]
+fn sparse_accesses_count_as_the_functional_model() {
+    for policy in [WritePolicy::WriteAround, WritePolicy::WriteBack] {
+        for repl in [Replacement::Lru, Replacement::Fifo, Replacement::Random] {
+            let mut cfg = two_level(2);
+            for l in [&mut cfg.l1, &mut cfg.l2] {
+                l.write_policy = policy;
+                l.replacement = repl;
+                l.ways = 4;
+            }
+            cfg.l1.size_bytes = 4096;
+            cfg.l2.size_bytes = 32768;
+            let reqs: Vec<_> = random_trace(4000, 5, 2, 1 << 13, 0)
+                .into_iter()
+                .enumerate()
+                .map(|(i, mut r)| {
+                    r.cycle = 1000 * i as u64;
+                    r
+                })
+                .collect();
+            let mut timed = fixed(&cfg, 40);
+            drive(&mut timed, &reqs, false);
+            let mut func = FunctionalHierarchy::new(&cfg).unwrap();
+            for r in &reqs {
+                func.access(r.l1, r.addr, r.op);
+            }
+            for n in 0..3 {
+                let (f, t) = (func.stats(n), timed.stats(n));
+                let key = |s: &rtsim_cache::CacheStats| {
+                    (
+                        s.reads,
+                        s.writes,
+                        s.read_hits,
+                        s.write_hits,
+                        s.fills,
+                        s.evictions,
+                        s.writebacks,
+                        s.write_throughs,
+                    )
+                };
+                assert_eq!(key(f), key(t), "{policy:?} {repl:?} cache {n}");
+            }
+            let mem_reads = timed.memory().accepted[0];
+            assert_eq!(
+                mem_reads,
+                func.memory.reads + func.memory.writes,
+                "{policy:?} {repl:?}"
+            );
+        }
+    }
+}
