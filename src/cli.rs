@@ -102,9 +102,10 @@ pub struct BvhStatsArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
     /// DRAM preset whose address mapping the treelet row check uses (see `rtsim dram
-    /// --list-presets`).
-    #[arg(long, value_name = "PRESET", default_value = "gddr5-trax")]
-    pub dram_preset: String,
+    /// --list-presets`); the same as `--set dram.preset=PRESET`. Default: the run's
+    /// `dram.preset` (`gddr5-trax` unless a chip preset or the user names another).
+    #[arg(long, value_name = "PRESET")]
+    pub dram_preset: Option<String>,
 }
 
 #[derive(Debug, Args, Clone)]

@@ -13,6 +13,9 @@ use std::time::Instant;
 pub struct Session {
     pub resolved: Resolved,
     pub tracer: Tracer,
+    /// The memory image (addresses of every record; treelets with `memory.layout =
+    /// "treelets"`, whose ids the tracer then counts crossings of).
+    pub image: rtsim_bvh::MemoryImage,
     pub pool: rayon::ThreadPool,
     /// The 4-wide fast path, when asked for and enabled (`trace.fast_path` with the
     /// Möller–Trumbore kernel).
@@ -39,10 +42,23 @@ pub fn open(args: &SceneArgs, flags: &[Flag], want_fast: bool) -> Result<Session
     let bvh = pool.install(|| rtsim_bvh::build(&scene.triangles, &cfg.bvh, cfg.memory.order))?;
     let build_seconds = start.elapsed().as_secs_f64();
     let fast = fast_path(&cfg.trace, want_fast, &scene.triangles, &bvh)?;
-    let tracer = Tracer::new(&scene.triangles, bvh, &cfg.trace)?;
+    let (width, height, _) = cfg.workload.resolved_size();
+    let extras = rtsim_bvh::ImageExtras::for_run(
+        &cfg.memory,
+        cfg.trace.triangle_test == TriangleTest::Wald,
+        scene.materials.len() as u32,
+        width,
+        height,
+    );
+    let image = rtsim_bvh::MemoryImage::build(&bvh, &cfg.memory, &extras)?;
+    let mut tracer = Tracer::new(&scene.triangles, bvh, &cfg.trace)?;
+    if let Some(t) = image.treelets() {
+        tracer.set_treelets(t.node_treelet.clone())?;
+    }
     Ok(Session {
         resolved,
         tracer,
+        image,
         pool,
         fast,
         build_seconds,

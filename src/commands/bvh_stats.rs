@@ -4,9 +4,9 @@
 //! cost, node and leaf counts, leaf depth, triangles per leaf, build time, treelets with their
 //! fill and DRAM rows (`memory.layout = "treelets"`), and every region's base and size.
 //!
-//! The treelet row check uses the address mapping of the DRAM preset named by
-//! `--dram-preset` (default `gddr5-trax`); findings are warnings, or an error with
-//! `memory.treelet_row_check = "strict"`.
+//! The treelet row check uses the address mapping of the run's `[dram]` section (its preset
+//! is `dram.preset`, which `--dram-preset` sets; default `gddr5-trax`); findings are
+//! warnings, or an error with `memory.treelet_row_check = "strict"`.
 
 use super::thousands;
 use crate::cli::BvhStatsArgs;
@@ -27,8 +27,13 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 pub fn run(args: BvhStatsArgs) -> Result<()> {
-    let dram = DramRows::for_preset(&args.dram_preset)?;
-    let r = crate::run_config::resolve(&args.scene, &[])?;
+    let flags: Vec<crate::run_config::Flag> = args
+        .dram_preset
+        .iter()
+        .map(|p| ("dram.preset", toml::Value::String(p.clone())))
+        .collect();
+    let r = crate::run_config::resolve(&args.scene, &flags)?;
+    let dram = DramRows::for_config(&r.config.dram)?;
     let (width, height, _) = r.config.workload.resolved_size();
     let extras = ImageExtras::for_run(
         &r.config.memory,
@@ -61,13 +66,12 @@ struct DramRows {
 }
 
 impl DramRows {
-    fn for_preset(preset: &str) -> Result<Self> {
-        let c = rtsim_dram::config::preset_config(preset).context("--dram-preset")?;
+    fn for_config(c: &rtsim_dram::DramConfig) -> Result<Self> {
         let m = rtsim_dram::AddressMapper::new(&c.mapping, c.bank_xor, &c.organisation)
-            .with_context(|| format!("--dram-preset {preset}"))?;
+            .with_context(|| format!("dram.mapping = {}", c.mapping))?;
         Ok(DramRows {
-            preset: preset.to_string(),
-            mapping: c.mapping,
+            preset: c.preset.clone(),
+            mapping: c.mapping.clone(),
             row_bytes: m.row_run_bytes(),
         })
     }
@@ -219,8 +223,14 @@ fn format_table(
         "layout",
         match m.layout {
             Layout::Linear => "linear".to_string(),
+            Layout::Treelets if m.treelet_packing => format!(
+                "treelets of <= {} B, packed on 64 B lines, a new {} B row where one would \
+                 straddle",
+                thousands(m.treelet_bytes),
+                thousands(m.region_alignment)
+            ),
             Layout::Treelets => format!(
-                "treelets of <= {} B, aligned to {} B",
+                "treelets of <= {} B, each aligned to {} B",
                 thousands(m.treelet_bytes),
                 thousands(m.region_alignment)
             ),
@@ -335,7 +345,7 @@ mod tests {
     }
 
     fn trax() -> DramRows {
-        DramRows::for_preset("gddr5-trax").unwrap()
+        DramRows::for_config(&rtsim_dram::DramConfig::default()).unwrap()
     }
 
     fn text(tris: &[[Vec3; 3]], c: &RunConfig) -> String {
@@ -386,7 +396,8 @@ mod tests {
         let out = report("grid", &grid(40), &extras, &trax(), &c).unwrap();
         let text = out.text;
         for want in [
-            "layout              treelets of <= 1,024 B, aligned to 8,192 B\n",
+            "layout              treelets of <= 1,024 B, packed on 64 B lines, a new 8,192 B \
+             row where one would straddle\n",
             "DRAM rows           8,192 B of aligned addresses per row (gddr5-trax: \
              row:rank:bank:channel:column:offset)",
             "node treelets       ",
@@ -438,12 +449,12 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("bvh.max_depth"), "{e}");
-        let e = DramRows::for_preset("ddr9").unwrap_err();
-        let e = format!("{e:#}");
-        assert!(
-            e.contains("--dram-preset") && e.contains("gddr5-trax"),
-            "{e}"
-        );
+        let bad = rtsim_dram::DramConfig {
+            mapping: "row:nonsense".into(),
+            ..Default::default()
+        };
+        let e = format!("{:#}", DramRows::for_config(&bad).unwrap_err());
+        assert!(e.contains("dram.mapping"), "{e}");
     }
 
     #[test]

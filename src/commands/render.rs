@@ -8,9 +8,10 @@ use crate::run_config::{self, Flag};
 use crate::session;
 use anyhow::{Context, Result};
 use rtsim_core::output::write_atomic;
+use rtsim_run::facts::{BvhFacts, RayFacts, SceneFacts, WorkloadFacts};
 use rtsim_trace::film::write_png;
 use rtsim_trace::{Integrator, ToneMap, WorkloadKind, WorkloadParams, render_frame};
-use serde_json::json;
+use serde::Serialize;
 use std::time::Instant;
 use toml::Value;
 
@@ -68,64 +69,41 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .with_context(|| format!("writing {}", p.display()))?;
     }
     let total = frame.stats.total();
-    let mut kinds = serde_json::Map::new();
-    for (name, c) in frame.stats.by_kind() {
-        kinds.insert(name.into(), serde_json::to_value(c)?);
-    }
-    let bvh = s.tracer.bvh();
-    let stats = json!({
-        "rtsim_version": env!("CARGO_PKG_VERSION"),
-        "scene": {
-            "name": scene.name,
-            "triangles": scene.triangles.len(),
-            "materials": scene.materials.len(),
-            "dropped_degenerate": scene.report.dropped_degenerate,
-            "dropped_non_finite": scene.report.dropped_non_finite,
-            "polygons_triangulated": scene.report.polygons_triangulated,
+    let stats = RenderStats {
+        rtsim_version: env!("CARGO_PKG_VERSION"),
+        scene: SceneFacts::of(scene),
+        bvh: BvhFacts::of(s.tracer.bvh(), Some(&s.image)),
+        workload: WorkloadFacts::of(&params),
+        traversal: s.tracer.traversal().name(),
+        rays: RayFacts::of(&frame.stats, params.kind),
+        heatmap: HeatmapFacts {
+            nodes_visited_max: frame
+                .pixels
+                .iter()
+                .map(|p| p.nodes_visited)
+                .max()
+                .unwrap_or(0),
+            nodes_visited_scale_top: heat_top,
         },
-        "bvh": {
-            "nodes": bvh.nodes.len(),
-            "leaves": bvh.nodes.iter().filter(|n| n.is_leaf()).count(),
-            "depth": rtsim_trace::tracer::bvh_depth(bvh),
-        },
-        "workload": {
-            "kind": params.kind,
-            "width": params.width,
-            "height": params.height,
-            "spp": params.spp,
-            "max_depth": params.max_depth,
-            "specular_bounces": params.specular_bounces,
-            "ao_radius": params.ao_radius,
-            "seed": params.seed,
-        },
-        "rays": {
-            "by_kind": kinds,
-            "total": total,
-            "path_segments": if params.kind == WorkloadKind::Path { Some(frame.stats.path_segments()) } else { None },
-        },
-        "heatmap": {
-            "nodes_visited_max": frame.pixels.iter().map(|p| p.nodes_visited).max().unwrap_or(0),
-            "nodes_visited_scale_top": heat_top,
-        },
-    });
+    };
     write_atomic(
         out.join("stats.json"),
         serde_json::to_string_pretty(&stats)?.as_bytes(),
     )
     .with_context(|| format!("writing {}", out.join("stats.json").display()))?;
-    let timing = json!({
-        "threads": s.pool.current_num_threads(),
-        "bvh_build_seconds": s.build_seconds,
-        "render_seconds": render_seconds,
-        "mrays_per_second": total.rays as f64 / render_seconds.max(1e-9) / 1e6,
-    });
+    let timing = RenderTiming {
+        threads: s.pool.current_num_threads(),
+        bvh_build_seconds: s.build_seconds,
+        render_seconds,
+        mrays_per_second: total.rays as f64 / render_seconds.max(1e-9) / 1e6,
+    };
     write_atomic(
         out.join("timing.json"),
         serde_json::to_string_pretty(&timing)?.as_bytes(),
     )?;
     write_atomic(
         out.join("config.resolved.toml"),
-        run_config::resolved_toml(&s.resolved)?.as_bytes(),
+        rtsim_run::resolved_toml(&s.resolved, "render")?.as_bytes(),
     )?;
 
     println!(
@@ -149,6 +127,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if params.kind == WorkloadKind::Path {
         println!("path segments    {}", frame.stats.path_segments());
     }
+    if s.image.treelets().is_some() {
+        println!(
+            "treelets         {:.2} crossed per ray ({} crossings, {} rays)",
+            total.treelet_crossings as f64 / total.rays.max(1) as f64,
+            total.treelet_crossings,
+            total.rays
+        );
+    }
     println!(
         "time             BVH {:.3} s, render {:.3} s, {:.2} Mrays/s",
         s.build_seconds,
@@ -161,16 +147,32 @@ pub fn run(args: RenderArgs) -> Result<()> {
 
 /// The frame parameters of a resolved run (defaults filled in).
 pub fn workload_params(r: &run_config::Resolved) -> WorkloadParams {
-    let w = &r.config.workload;
-    let (width, height, spp) = w.resolved_size();
-    WorkloadParams {
-        kind: w.kind,
-        width,
-        height,
-        spp,
-        max_depth: w.max_depth,
-        specular_bounces: w.specular_bounces,
-        ao_radius: w.ao_radius.expect("resolve() fills the AO radius"),
-        seed: r.config.seed,
-    }
+    rtsim_run::workload_params(r)
+}
+
+/// `stats.json` of `rtsim render`: deterministic (same config and seed, same bytes).
+#[derive(Debug, Serialize)]
+struct RenderStats {
+    rtsim_version: &'static str,
+    scene: SceneFacts,
+    bvh: BvhFacts,
+    workload: WorkloadFacts,
+    traversal: &'static str,
+    rays: RayFacts,
+    heatmap: HeatmapFacts,
+}
+
+#[derive(Debug, Serialize)]
+struct HeatmapFacts {
+    nodes_visited_max: u32,
+    nodes_visited_scale_top: u32,
+}
+
+/// `timing.json`: host-dependent figures, kept apart from the deterministic stats.
+#[derive(Debug, Serialize)]
+struct RenderTiming {
+    threads: usize,
+    bvh_build_seconds: f64,
+    render_seconds: f64,
+    mrays_per_second: f64,
 }

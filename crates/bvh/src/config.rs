@@ -218,6 +218,14 @@ pub struct MemoryLayoutConfig {
     /// What the DRAM row check does with a treelet that spans more rows than its size needs:
     /// `warn` (default; report and go on) or `strict` (refuse the layout, with the reason).
     pub treelet_row_check: RowCheck,
+    /// Pack treelets: each starts on a 64-byte line right after the previous one, and on a
+    /// new DRAM row (`region_alignment`) only where it would otherwise touch more rows than
+    /// its size needs, so small treelets share rows and the node region stays compact.
+    /// `false`: every treelet starts on a new row (STRaTA's Figure 4 drawn literally; the
+    /// greedy growth leaves many small fringe treelets, so this multiplies the node region,
+    /// about 11× for Sibenik). Either way no treelet touches more rows than it needs.
+    /// Default true.
+    pub treelet_packing: bool,
     /// In-flight path slots in the spilled path state region. Default: unset, one per pixel of
     /// the workload image (a software renderer's count); a STRaTA chip sets its stream
     /// memory's ray capacity. Range 1..=67108864.
@@ -240,6 +248,7 @@ impl Default for MemoryLayoutConfig {
             layout: Layout::Linear,
             treelet_bytes: TREELET_BYTES_DEFAULT,
             treelet_row_check: RowCheck::Warn,
+            treelet_packing: true,
             path_slots: None,
             path_state_bytes: PATH_STATE_BYTES_DEFAULT,
         }

@@ -727,8 +727,14 @@ impl MemoryImage {
         }
         let nb = p.node_bytes as u64;
         for (id, info) in t.treelets.iter().enumerate() {
-            if info.base % p.region_alignment != 0 {
-                return bad(format!("treelet {id} at {:#x} is not aligned", info.base));
+            // Line-aligned, and never across more rows (alignment units) than its size needs.
+            let align = p.region_alignment;
+            if info.base % 64 != 0 || info.rows_touched(align) > info.rows_needed(align).max(1) {
+                return bad(format!(
+                    "treelet {id} at {:#x} ({} B) is not aligned to a line or spans more \
+                     {align}-byte rows than it needs",
+                    info.base, info.bytes
+                ));
             }
             if info.bytes > t.budget_bytes {
                 return bad(format!(

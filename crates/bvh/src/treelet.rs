@@ -22,8 +22,11 @@
 //! (breadth-first over treelets).
 //!
 //! [`Treelets::build`] also places them: node treelets one after another from
-//! `memory.base_address`, each starting at a multiple of `memory.region_alignment`; then the
-//! triangle treelets from the next aligned address. Inside a node treelet, records follow in
+//! `memory.base_address`, then the triangle treelets from the next multiple of
+//! `memory.region_alignment` (a DRAM row). Packed (`memory.treelet_packing`, the default), a
+//! treelet starts at the next 64-byte line and moves to the next row only if it would
+//! otherwise touch more rows than its size needs, so the many small fringe treelets share
+//! rows; unpacked, every treelet starts a row. Inside a node treelet, records follow in
 //! the order they were added (the top treelet starts with one padding record so the root
 //! ends a pair slot, as in the linear layout); inside a triangle treelet, in slot order.
 //! [`check_rows`] compares each treelet's DRAM rows with what its size needs.
@@ -67,7 +70,8 @@ pub struct TreeletInfo {
     pub records: u32,
     /// Bytes occupied from `base`: the records, plus the top treelet's padding record.
     pub bytes: u64,
-    /// First byte address (a multiple of `memory.region_alignment`).
+    /// First byte address (a 64-byte line; a multiple of `memory.region_alignment` unless
+    /// `memory.treelet_packing` let it share a row).
     pub base: u64,
 }
 
@@ -230,7 +234,11 @@ impl Treelets {
         t.grow_node_treelets(bvh);
         t.node_treelet_count = t.treelets.len() as u32;
         t.fill_triangle_treelets(bvh)?;
-        t.place(config.base_address, config.region_alignment)?;
+        t.place(
+            config.base_address,
+            config.region_alignment,
+            config.treelet_packing,
+        )?;
         Ok(t)
     }
 
@@ -343,8 +351,12 @@ impl Treelets {
     }
 
     /// Give every treelet a base: node treelets from `base`, triangle treelets from the next
-    /// multiple of `align` after them, each at a multiple of `align`.
-    fn place(&mut self, base: u64, align: u64) -> Result<(), TreeletError> {
+    /// multiple of `align` (a DRAM row) after them. Unpacked, each treelet starts at a multiple
+    /// of `align`; packed, at the next 64-byte line, moved to the next multiple of `align` only
+    /// when it would otherwise touch more rows than its size needs.
+    fn place(&mut self, base: u64, align: u64, packed: bool) -> Result<(), TreeletError> {
+        /// Cache line (DESIGN §3: 64 B lines in every cache of both chips).
+        const LINE: u64 = 64;
         let overflow = || TreeletError::AddressOverflow { base };
         let mut cursor = base;
         let n_nodes = self.node_treelet_count as usize;
@@ -352,9 +364,20 @@ impl Treelets {
             if k == n_nodes {
                 cursor = align_up(cursor, align).ok_or_else(overflow)?;
             }
+            if packed {
+                cursor = align_up(cursor, LINE).ok_or_else(overflow)?;
+                let last = cursor
+                    .checked_add(info.bytes.max(1) - 1)
+                    .ok_or_else(overflow)?;
+                let touched = last / align - cursor / align + 1;
+                if touched > info.bytes.div_ceil(align).max(1) {
+                    cursor = align_up(cursor, align).ok_or_else(overflow)?;
+                }
+            } else {
+                cursor = align_up(cursor, align).ok_or_else(overflow)?;
+            }
             info.base = cursor;
-            let end = cursor.checked_add(info.bytes).ok_or_else(overflow)?;
-            cursor = align_up(end, align).ok_or_else(overflow)?;
+            cursor = cursor.checked_add(info.bytes).ok_or_else(overflow)?;
         }
         Ok(())
     }
@@ -606,6 +629,41 @@ mod tests {
         assert_eq!(t.members(1), &[7, 8, 15, 16, 17, 18]);
         assert!(t.node_treelets().iter().all(|i| i.bytes <= 256));
         assert_eq!(t.node_treelet_count, 5);
+    }
+
+    #[test]
+    fn packing_shares_rows_without_adding_rows_to_any_treelet() {
+        let bvh = complete(9);
+        let rows = 1024;
+        let layout = |packed| {
+            Treelets::build(
+                &bvh,
+                &MemoryLayoutConfig {
+                    treelet_bytes: 1536,
+                    region_alignment: rows,
+                    treelet_packing: packed,
+                    ..Default::default()
+                },
+            )
+            .unwrap()
+        };
+        let (packed, unpacked) = (layout(true), layout(false));
+        assert_eq!(packed.node_treelet, unpacked.node_treelet);
+        for t in [&packed, &unpacked] {
+            let mut prev_end = 0;
+            for info in &t.treelets {
+                assert_eq!(info.base % 64, 0);
+                assert!(info.base >= prev_end, "treelets overlap");
+                prev_end = info.end();
+                assert!(info.rows_touched(rows) <= info.rows_needed(rows).max(1));
+            }
+            assert!(check_rows(t, rows).is_empty());
+        }
+        assert!(unpacked.treelets.iter().all(|i| i.base % rows == 0));
+        let span = |t: &Treelets| t.node_treelets().last().unwrap().end();
+        assert!(span(&packed) < span(&unpacked));
+        // Small treelets share rows when packed.
+        assert!(packed.treelets.iter().any(|i| i.base % rows != 0));
     }
 
     #[test]

@@ -202,13 +202,18 @@ impl Layers {
             return Err(bad("empty key or key segment"));
         }
         let value = parse_value(raw.trim());
-        self.set_value(key, value).map_err(|m| bad(&m))?;
+        self.set_value_inner(key, value).map_err(|m| bad(&m))?;
         self.origins.push(format!("--set {assignment}"));
         Ok(())
     }
 
-    /// Set a dotted key to a value, creating intermediate tables.
-    pub fn set_value(&mut self, dotted: &str, value: Value) -> Result<(), String> {
+    /// Set a dotted key to a value, creating intermediate tables. Errors name the key.
+    pub fn set_value(&mut self, dotted: &str, value: Value) -> Result<(), ConfigError> {
+        self.set_value_inner(dotted, value)
+            .map_err(|m| ConfigError::key(dotted, m))
+    }
+
+    fn set_value_inner(&mut self, dotted: &str, value: Value) -> Result<(), String> {
         let parts: Vec<&str> = dotted.split('.').map(str::trim).collect();
         let (last, parents) = parts.split_last().expect("split yields at least one part");
         let mut cur = &mut self.root;
@@ -260,6 +265,86 @@ impl Layers {
         value.validate()?;
         Ok(value)
     }
+}
+
+/// A family of named presets: a key of the tree names which preset of the family to merge
+/// beneath the user's layers (the DRAM standard under `dram.preset`, the chip under
+/// `arch.preset`, or the standalone DRAM model's root `preset`).
+pub struct PresetFamily<'a> {
+    /// Dotted key holding the preset's name.
+    pub key: &'a str,
+    /// Where the preset's table is merged (`""`: the root; a preset may then set any key).
+    pub at: &'a str,
+    /// Name used when no layer names one.
+    pub default: &'a str,
+    /// The preset's table, or an error naming the known presets.
+    pub lookup: &'a dyn Fn(&str) -> Result<Table, ConfigError>,
+}
+
+impl std::fmt::Debug for PresetFamily<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("PresetFamily")
+            .field("key", &self.key)
+            .field("at", &self.at)
+            .field("default", &self.default)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Assemble a configuration with presets: `base` (the built-in defaults) at the bottom, then
+/// the preset of each family (listed bottom first: a later family's preset lies above an
+/// earlier one's, so a chip preset can override its DRAM standard's values), then `upper`
+/// (scene defaults, the user's file, flags and `--set`s) on top. Each family's preset is the
+/// one named at its key by the layers above it — `upper`, then the presets of later families
+/// — or its default. Origins record every layer, presets included.
+pub fn assemble(
+    base: &Layers,
+    families: &[PresetFamily<'_>],
+    upper: &Layers,
+) -> Result<Layers, ConfigError> {
+    // Names, top-down: what `upper` says, else what a preset above says, else the default.
+    let mut names: Vec<String> = vec![String::new(); families.len()];
+    let mut tables: Vec<Table> = vec![Table::new(); families.len()];
+    for i in (0..families.len()).rev() {
+        let fam = &families[i];
+        let mut above = Layers::new();
+        for j in i + 1..families.len() {
+            above.merge_table_at(families[j].at, tables[j].clone(), "");
+        }
+        above.merge_table(upper.root.clone(), "");
+        let name = match above.get(fam.key) {
+            Some(Value::String(s)) => s.clone(),
+            Some(other) => {
+                return Err(ConfigError::key(
+                    fam.key,
+                    format!("expected a preset name, found {other}"),
+                ));
+            }
+            None => fam.default.to_string(),
+        };
+        let mut table = (fam.lookup)(&name)?;
+        // The preset records its own name, so the resolved tree says what it was built on.
+        let own_key = fam
+            .key
+            .strip_prefix(fam.at)
+            .map(|k| k.trim_start_matches('.'))
+            .unwrap_or(fam.key);
+        let mut named = Layers::new();
+        named.merge_table(table, "");
+        named.set_value(own_key, Value::String(name.clone()))?;
+        table = named.root;
+        names[i] = name;
+        tables[i] = table;
+    }
+    let mut all = base.clone();
+    for (i, fam) in families.iter().enumerate() {
+        let origin = format!("preset {} = {}", fam.key, names[i]);
+        all.merge_table_at(fam.at, std::mem::take(&mut tables[i]), &origin);
+    }
+    all.merge_table(upper.root.clone(), "");
+    all.origins.pop();
+    all.origins.extend(upper.origins.iter().cloned());
+    Ok(all)
 }
 
 /// Deserialise a table, naming the full key path (`prefix` + the path serde reports) on error.

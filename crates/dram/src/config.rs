@@ -298,7 +298,7 @@ pub struct TraceConfig {
 impl Default for DramConfig {
     fn default() -> Self {
         DramConfig {
-            preset: "gddr5-trax".into(),
+            preset: DEFAULT_PRESET.into(),
             mapping: "row:rank:bank:channel:column:offset".into(),
             bank_xor: false,
             check: false,
@@ -858,8 +858,7 @@ pub fn layers(user: &UserLayers<'_>) -> Result<Layers, ConfigError> {
         mine.merge_table(table, &origin);
     }
     if let Some(p) = user.preset {
-        mine.set_value("preset", Value::String(p.into()))
-            .map_err(|m| ConfigError::key("preset", m))?;
+        mine.set_value("preset", Value::String(p.into()))?;
     }
     for s in user.sets {
         let (k, v) = match s.split_once('=') {
@@ -886,22 +885,25 @@ pub fn layers(user: &UserLayers<'_>) -> Result<Layers, ConfigError> {
              pass their own clock to the DRAM model)",
         ));
     }
-    let name = match mine.get("preset") {
-        Some(Value::String(s)) => s.clone(),
-        Some(other) => {
-            return Err(ConfigError::key(
-                "preset",
-                format!("expected a preset name, found {other}"),
-            ));
-        }
-        None => DramConfig::default().preset,
-    };
-    let mut all = Layers::new();
-    all.merge_value(&DramConfig::default(), "built-in defaults")?;
-    all.merge_table(preset_table(&name)?, &format!("preset {name}"));
-    all.merge_table(mine.table().clone(), &mine.origins().join(", "));
-    Ok(all)
+    let mut base = Layers::new();
+    base.merge_value(&DramConfig::default(), "built-in defaults")?;
+    rtsim_config::assemble(&base, &[preset_family("preset", "")], &mine)
 }
+
+/// The DRAM presets as a [`rtsim_config::PresetFamily`] named at `key` and merged at `at`
+/// (`"preset"` at the root for a standalone run; `"dram.preset"` at `"dram"` in a chip's run
+/// configuration).
+pub fn preset_family<'a>(key: &'a str, at: &'a str) -> rtsim_config::PresetFamily<'a> {
+    rtsim_config::PresetFamily {
+        key,
+        at,
+        default: DEFAULT_PRESET,
+        lookup: &preset_table,
+    }
+}
+
+/// The preset a tree is built on when none is named.
+pub const DEFAULT_PRESET: &str = "gddr5-trax";
 
 /// Build and validate the DRAM config of a standalone run.
 pub fn resolve(user: &UserLayers<'_>) -> Result<DramConfig, ConfigError> {

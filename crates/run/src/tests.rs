@@ -1,0 +1,90 @@
+use super::*;
+
+fn inputs(sets: &[&str]) -> Inputs {
+    Inputs {
+        sets: sets.iter().map(|s| s.to_string()).collect(),
+        ..Inputs::default()
+    }
+}
+
+fn build(sets: &[&str]) -> Result<RunConfig, ConfigError> {
+    layers(&inputs(sets), None)?.build()
+}
+
+#[test]
+fn defaults_resolve_to_the_functional_arch_on_gddr5_trax() {
+    let c = build(&[]).unwrap();
+    assert_eq!(c.arch.preset, "functional");
+    assert_eq!(c.dram.preset, "gddr5-trax");
+    assert_eq!(c.dram, rtsim_dram::DramConfig::default());
+}
+
+#[test]
+fn the_dram_preset_lies_beneath_the_users_layers() {
+    let c = build(&["dram.preset=lpddr3-1600"]).unwrap();
+    let lp = rtsim_dram::config::preset_config("lpddr3-1600").unwrap();
+    assert_eq!(c.dram, lp);
+    // A user's key wins over the preset's.
+    let c = build(&["dram.preset=lpddr3-1600", "dram.timing.tRCD=99"]).unwrap();
+    assert_eq!(c.dram.timing.t_rcd, 99);
+    assert_eq!(c.dram.organisation, lp.organisation);
+    // The same as the standalone DRAM command's layering.
+    let standalone = rtsim_dram::config::resolve(&rtsim_dram::config::UserLayers {
+        preset: Some("lpddr3-1600"),
+        file: None,
+        sets: &["timing.tRCD=99".to_string()],
+    })
+    .unwrap();
+    assert_eq!(c.dram, standalone);
+}
+
+#[test]
+fn unknown_presets_and_keys_are_named() {
+    let e = build(&["arch.preset=warp-drive"]).unwrap_err().to_string();
+    assert!(e.contains("warp-drive") && e.contains("functional"), "{e}");
+    let e = build(&["dram.preset=ddr9"]).unwrap_err().to_string();
+    assert!(e.contains("ddr9") && e.contains("gddr5-trax"), "{e}");
+    let e = build(&["dram.timing.tRCD=0"]).unwrap_err().to_string();
+    assert!(e.contains("dram.timing.tRCD"), "{e}");
+    let e = build(&["arch.colour=red"]).unwrap_err().to_string();
+    assert!(e.contains("arch.colour"), "{e}");
+}
+
+#[test]
+fn bit_stack_builds_a_32_level_bvh_with_parent_pointers_unless_told_otherwise() {
+    let c = build(&["trace.traversal=bit-stack"]).unwrap();
+    assert_eq!(c.bvh.max_depth, 32);
+    assert!(c.memory.parent_pointers);
+    let c = build(&["trace.traversal=bit-stack", "bvh.max_depth=20"]).unwrap();
+    assert_eq!(c.bvh.max_depth, 20);
+    let e = build(&["trace.traversal=bit-stack", "bvh.max_depth=40"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("bvh.max_depth") && e.contains("32"), "{e}");
+    let e = build(&["trace.traversal=bit-stack", "memory.parent_pointers=false"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("memory.parent_pointers"), "{e}");
+}
+
+#[test]
+fn the_resolved_tree_repeats_the_run() {
+    let r = resolve(
+        &inputs(&["dram.preset=ddr4-3200", "workload.kind=ao"]),
+        &mut |_| {},
+    )
+    .unwrap();
+    let text = resolved_toml(&r, "render").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.toml");
+    std::fs::write(&path, text).unwrap();
+    let again = resolve(
+        &Inputs {
+            config_file: Some(path),
+            ..Inputs::default()
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(again.config, r.config);
+}
