@@ -63,8 +63,13 @@ fn violations(bvh: &Bvh, cfg: &MemoryLayoutConfig, t: &Treelets) -> Vec<String> 
         if info.bytes > t.budget_bytes {
             v.push(format!("treelet {id}: {} B over budget", info.bytes));
         }
-        if info.base % cfg.region_alignment != 0 {
+        // On a line; row-aligned unless packed; never across more rows than needed.
+        let (align, packed) = (cfg.region_alignment, cfg.treelet_packing);
+        if info.base % 64 != 0 || (!packed && info.base % align != 0) {
             v.push(format!("treelet {id} at {:#x} unaligned", info.base));
+        }
+        if info.rows_touched(align) > info.rows_needed(align).max(1) {
+            v.push(format!("treelet {id} at {:#x} straddles a row", info.base));
         }
         let members = t.members(id);
         if members.len() != info.records as usize {
@@ -301,7 +306,7 @@ fn check_catches_broken_treelet_layouts() {
     expect(p, "not inside its treelet");
     // A treelet off its alignment.
     let mut p = img.parts().clone();
-    p.treelets.as_mut().unwrap().treelets[1].base += 64;
+    p.treelets.as_mut().unwrap().treelets[1].base += 4;
     expect(p, "not aligned");
 }
 
