@@ -14,6 +14,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a frame with the functional tracer: PNG, heat map, stats.json, config.resolved.toml.
     Render(RenderArgs),
+    /// Run a frame on an architecture model (--arch): image, cycle heat map, stats.json.
+    Simulate(crate::commands::simulate::SimulateArgs),
     /// Answer ray queries from a binary file (see README: rays.bin / hits.bin).
     Trace(TraceArgs),
     /// Write the scene's triangles in hit-index order (see README: tris.bin).

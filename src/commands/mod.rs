@@ -7,6 +7,7 @@ pub mod dram;
 pub mod export;
 pub mod render;
 pub mod scenes;
+pub mod simulate;
 pub mod trace;
 
 use crate::cli::{Cli, Command};
@@ -15,6 +16,7 @@ use anyhow::Result;
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(a) => render::run(a),
+        Command::Simulate(a) => simulate::run(a),
         Command::Trace(a) => trace::run(a),
         Command::ExportTriangles(a) => export::run(a),
         Command::BvhStats(a) => bvh_stats::run(a),

@@ -3,8 +3,8 @@
 //! Principal types:
 //!
 //! - [`RunConfig`]: the whole tree — `seed`, `threads`, `[scene]`, `[bvh]`, `[memory]`,
-//!   `[trace]`, `[workload]`, `[output]`, `[arch]` (which machine runs the frame) and `[dram]`
-//!   (the DRAM model behind a chip). Each section's fields are documented in its crate.
+//!   `[trace]`, `[workload]`, `[output]`, `[arch]` (which machine runs the frame), `[dram]`
+//!   (the DRAM model behind a chip) and `[sim]` (window, cycle limit, timing engine). Each section's fields are documented in its crate.
 //! - [`arch`]: the architecture presets (`functional`, and the chip models as they land).
 //! - [`Inputs`]: what a command line gives (config file, flags, `--set`s), independent of
 //!   the CLI parser.
@@ -21,8 +21,10 @@
 
 pub mod arch;
 pub mod facts;
+pub mod sim;
 
 pub use arch::{ARCH_PRESETS, ArchConfig, ArchPreset};
+pub use sim::{SimConfig, SimMode};
 
 use rtsim_bvh::{BvhConfig, MemoryLayoutConfig};
 use rtsim_config::{ConfigError, Layers, PresetFamily, Validate, check_range};
@@ -49,6 +51,7 @@ pub struct RunConfig {
     pub output: OutputConfig,
     pub arch: ArchConfig,
     pub dram: DramConfig,
+    pub sim: SimConfig,
 }
 
 impl Default for RunConfig {
@@ -64,6 +67,7 @@ impl Default for RunConfig {
             output: OutputConfig::default(),
             arch: ArchConfig::default(),
             dram: DramConfig::default(),
+            sim: SimConfig::default(),
         }
     }
 }
@@ -131,6 +135,8 @@ impl Validate for RunConfig {
         self.trace.validate()?;
         self.workload.validate()?;
         self.arch.validate()?;
+        let (w, h, _) = self.workload.resolved_size();
+        self.sim.validate_for(w, h)?;
         self.dram.validate().map_err(|e| prefixed("dram", e))?;
         if self.trace.traversal == Traversal::BitStack
             && self.bvh.max_depth > rtsim_trace::step::bitstack::MAX_LEVELS

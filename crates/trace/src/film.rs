@@ -121,19 +121,28 @@ impl Frame {
     /// extreme pixels do not wash the image out), coloured with a perceptual ramp.
     /// Returns the pixels and the value mapped to the top of the scale.
     pub fn heatmap_rgb8(&self) -> (Vec<u8>, u32) {
-        let mut sorted: Vec<u32> = self.pixels.iter().map(|p| p.nodes_visited).collect();
-        sorted.sort_unstable();
-        let top = sorted
-            .get((sorted.len() * 99 / 100).min(sorted.len().saturating_sub(1)))
-            .copied()
-            .unwrap_or(0)
-            .max(1);
-        let mut out = Vec::with_capacity(self.pixels.len() * 3);
-        for p in &self.pixels {
-            out.extend(ramp(p.nodes_visited as f32 / top as f32));
-        }
-        (out, top)
+        let values: Vec<u64> = self.pixels.iter().map(|p| p.nodes_visited as u64).collect();
+        let (rgb, top) = heatmap_rgb8(&values);
+        (rgb, top.min(u32::MAX as u64) as u32)
     }
+}
+
+/// A heat map of any per-pixel quantity (nodes visited, cycles), scaled to its 99th
+/// percentile so a few extreme pixels do not wash out the rest; returns the pixels and the
+/// value mapped to the top of the ramp.
+pub fn heatmap_rgb8(values: &[u64]) -> (Vec<u8>, u64) {
+    let mut sorted = values.to_vec();
+    sorted.sort_unstable();
+    let top = sorted
+        .get((sorted.len() * 99 / 100).min(sorted.len().saturating_sub(1)))
+        .copied()
+        .unwrap_or(0)
+        .max(1);
+    let mut out = Vec::with_capacity(values.len() * 3);
+    for &v in values {
+        out.extend(ramp((v as f64 / top as f64) as f32));
+    }
+    (out, top)
 }
 
 /// A perceptual ramp (dark blue → teal → yellow), piecewise linear through viridis' key
