@@ -80,7 +80,5 @@ pub fn fast_path(
     {
         return Ok(None);
     }
-    Ok(Some(
-        FastBvh::new(triangles, bvh).map_err(anyhow::Error::msg)?,
-    ))
+    Ok(Some(FastBvh::new(triangles, bvh)?))
 }

@@ -26,21 +26,8 @@ pub struct TraceAccess {
     pub l1: usize,
 }
 
-/// A trace that cannot be read.
-#[derive(Debug, thiserror::Error)]
-pub enum TraceError {
-    #[error("cannot read trace {path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{path}:{line}: {message}")]
-    Parse {
-        path: PathBuf,
-        line: u64,
-        message: String,
-    },
-}
+/// A trace that cannot be read: the file, the line, and what is wrong with it.
+pub type TraceError = rtsim_core::FileError;
 
 /// Reads a trace line by line.
 #[derive(Debug)]
@@ -64,11 +51,7 @@ impl<R: BufRead> TraceReader<R> {
     }
 
     fn err(&self, message: String) -> TraceError {
-        TraceError::Parse {
-            path: self.path.clone(),
-            line: self.line_no,
-            message,
-        }
+        TraceError::at(&self.path, self.line_no, message)
     }
 
     fn parse(&mut self) -> Result<Option<TraceAccess>, TraceError> {

@@ -13,11 +13,13 @@
 //!   models (the DRAM crate): [`MemRequest`], [`MemCompletion`] and the [`MemoryPort`] trait.
 //! - [`clock`]: [`Clock`] domains and exact cycle conversion between them (1 GHz core with a
 //!   2 GHz DRAM, a 500 MHz T&I unit with 800 MHz LPDDR3, any integer frequencies).
+//! - [`error`]: [`FileError`], the located error of every input-file reader.
 //! - [`output`]: atomic file writes (temp file + rename), so a crash never leaves half a file.
 //! - [`stats`]: helpers for typed statistics (numerators and denominators kept, ratios
 //!   computed only when reporting).
 
 pub mod clock;
+pub mod error;
 pub mod math;
 pub mod mem;
 pub mod output;
@@ -27,6 +29,7 @@ pub mod rng;
 pub mod stats;
 
 pub use clock::Clock;
+pub use error::FileError;
 pub use math::{Aabb, Affine, Vec3};
 pub use mem::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort, QueueFull};
 pub use ray::Ray;

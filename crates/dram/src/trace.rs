@@ -64,31 +64,45 @@ impl fmt::Display for TraceFormat {
     }
 }
 
-/// A trace that cannot be read.
-#[derive(Debug, thiserror::Error)]
-pub enum TraceError {
-    #[error("cannot read trace {path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
+/// A trace that cannot be read: the file, the line, and what is wrong with it.
+pub type TraceError = rtsim_core::FileError;
+
+/// What is wrong with one line of a trace.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum LineError {
+    #[error("`{0}` is not a hex address")]
+    Hex(String),
+    #[error("`{0}` is not a hex PC")]
+    Pc(String),
+    #[error("`{text}` is not a {what} (a non-negative integer)")]
+    Integer { text: String, what: &'static str },
+    #[error("{what} {value} exceeds the supported {limit}")]
+    TooLarge {
+        what: &'static str,
+        value: u64,
+        limit: u64,
     },
-    #[error("{path}:{line}: {message}")]
-    Parse {
-        path: PathBuf,
-        line: u64,
-        message: String,
+    #[error("`{0}` is not an operation (R or W, READ or WRITE)")]
+    Op(String),
+    #[error("expected `{form}` ({format} format), found {found} field(s)")]
+    Fields {
+        form: &'static str,
+        format: TraceFormat,
+        found: usize,
     },
+    #[error("arrival cycle {cycle} is earlier than the previous request's {previous}")]
+    Backwards { cycle: u64, previous: u64 },
 }
 
-fn parse_hex(s: &str) -> Result<u64, String> {
+fn parse_hex(s: &str) -> Result<u64, LineError> {
     let digits = s
         .strip_prefix("0x")
         .or_else(|| s.strip_prefix("0X"))
         .unwrap_or(s);
     if digits.is_empty() {
-        return Err(format!("`{s}` is not a hex address"));
+        return Err(LineError::Hex(s.into()));
     }
-    u64::from_str_radix(digits, 16).map_err(|_| format!("`{s}` is not a hex address"))
+    u64::from_str_radix(digits, 16).map_err(|_| LineError::Hex(s.into()))
 }
 
 /// Largest arrival cycle a trace may give (2^48: ~3 days at 1 GHz), keeping all time
@@ -97,39 +111,45 @@ pub const MAX_TRACE_CYCLE: u64 = 1 << 48;
 /// Largest gap one USIMM line may give.
 pub const MAX_TRACE_GAP: u64 = 1 << 32;
 
-fn parse_dec(s: &str, what: &str, limit: u64) -> Result<u64, String> {
-    let v = s
-        .parse::<u64>()
-        .map_err(|_| format!("`{s}` is not a {what} (a non-negative integer)"))?;
+fn parse_dec(s: &str, what: &'static str, limit: u64) -> Result<u64, LineError> {
+    let v = s.parse::<u64>().map_err(|_| LineError::Integer {
+        text: s.into(),
+        what,
+    })?;
     if v > limit {
-        return Err(format!("{what} {v} exceeds the supported {limit}"));
+        return Err(LineError::TooLarge {
+            what,
+            value: v,
+            limit,
+        });
     }
     Ok(v)
 }
 
-fn parse_op(s: &str) -> Result<MemOp, String> {
+fn parse_op(s: &str) -> Result<MemOp, LineError> {
     match s.to_ascii_uppercase().as_str() {
         "R" | "READ" | "RD" => Ok(MemOp::Read),
         "W" | "WRITE" | "WR" => Ok(MemOp::Write),
-        _ => Err(format!("`{s}` is not an operation (R or W, READ or WRITE)")),
+        _ => Err(LineError::Op(s.into())),
     }
 }
 
 /// Parse one line; `Ok(None)` for blank and comment lines.
-pub fn parse_line(format: TraceFormat, line: &str) -> Result<Option<TraceRecord>, String> {
+pub fn parse_line(format: TraceFormat, line: &str) -> Result<Option<TraceRecord>, LineError> {
     let line = line.trim();
     if line.is_empty() || line.starts_with('#') {
         return Ok(None);
     }
     let f: Vec<&str> = line.split_ascii_whitespace().collect();
-    let expect = |n: &[usize], form: &str| {
+    let expect = |n: &[usize], form: &'static str| {
         if n.contains(&f.len()) {
             Ok(())
         } else {
-            Err(format!(
-                "expected `{form}` ({format} format), found {} field(s)",
-                f.len()
-            ))
+            Err(LineError::Fields {
+                form,
+                format,
+                found: f.len(),
+            })
         }
     };
     let rec = match format {
@@ -152,7 +172,7 @@ pub fn parse_line(format: TraceFormat, line: &str) -> Result<Option<TraceRecord>
         TraceFormat::Usimm => {
             expect(&[3, 4], "<gap> <R|W> <hex addr> [pc]")?;
             if f.len() == 4 {
-                parse_hex(f[3]).map_err(|_| format!("`{}` is not a hex PC", f[3]))?;
+                parse_hex(f[3]).map_err(|_| LineError::Pc(f[3].into()))?;
             }
             TraceRecord {
                 when: When::Gap(parse_dec(f[0], "gap", MAX_TRACE_GAP)?),
@@ -229,20 +249,16 @@ impl<R: BufRead> Iterator for TraceReader<R> {
                     } else {
                         e.to_string()
                     };
-                    return Some(Err(TraceError::Parse {
-                        path: self.path.clone(),
-                        line: self.line_no,
-                        message,
-                    }));
+                    return Some(Err(TraceError::at(&self.path, self.line_no, message)));
                 }
             }
             let parsed = parse_line(self.format, &self.buf).and_then(|r| match r {
                 Some(TraceRecord {
                     when: When::At(t), ..
-                }) if t < self.last_at => Err(format!(
-                    "arrival cycle {t} is earlier than the previous request's {}",
-                    self.last_at
-                )),
+                }) if t < self.last_at => Err(LineError::Backwards {
+                    cycle: t,
+                    previous: self.last_at,
+                }),
                 Some(rec) => {
                     if let When::At(t) = rec.when {
                         self.last_at = t;
@@ -254,13 +270,7 @@ impl<R: BufRead> Iterator for TraceReader<R> {
             match parsed {
                 Ok(Some(rec)) => return Some(Ok(rec)),
                 Ok(None) => continue,
-                Err(message) => {
-                    return Some(Err(TraceError::Parse {
-                        path: self.path.clone(),
-                        line: self.line_no,
-                        message,
-                    }));
-                }
+                Err(e) => return Some(Err(TraceError::at(&self.path, self.line_no, e))),
             }
         }
     }
@@ -409,7 +419,7 @@ mod tests {
             (TraceFormat::Usimm, "9999999999999 R 0x40", "exceeds"),
             (TraceFormat::Rtsim, "999999999999999999 R 0x40", "exceeds"),
         ] {
-            let e = parse_line(fmt, line).unwrap_err();
+            let e = parse_line(fmt, line).unwrap_err().to_string();
             assert!(e.contains(needle), "{line}: {e}");
         }
     }

@@ -185,11 +185,12 @@ impl Descriptor {
                 None => msg,
             };
             match e.span() {
-                Some(s) => SceneError::Parse {
-                    path: origin.to_path_buf(),
-                    line: text[..s.start.min(text.len())].matches('\n').count() as u64 + 1,
+                Some(s) => rtsim_core::FileError::at(
+                    origin,
+                    text[..s.start.min(text.len())].matches('\n').count() as u64 + 1,
                     message,
-                },
+                )
+                .into(),
                 None => SceneError::Format {
                     path: origin.to_path_buf(),
                     message,

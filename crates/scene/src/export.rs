@@ -39,18 +39,29 @@ pub fn write_triangles_file(path: &Path, triangles: &[Triangle]) -> io::Result<(
     f.commit()
 }
 
+/// A `tris.bin` image that cannot be decoded.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum TrisError {
+    #[error("shorter than the 8-byte triangle count")]
+    Short,
+    #[error("count {count} needs {needed} bytes of triangles, the file has {got}")]
+    Length {
+        count: u64,
+        needed: u128,
+        got: usize,
+    },
+}
+
 /// Decode a `tris.bin` image; the error says what is wrong with it.
-pub fn read_triangles(bytes: &[u8]) -> Result<Vec<Triangle>, String> {
-    let (head, body) = bytes
-        .split_at_checked(8)
-        .ok_or("shorter than the 8-byte triangle count")?;
+pub fn read_triangles(bytes: &[u8]) -> Result<Vec<Triangle>, TrisError> {
+    let (head, body) = bytes.split_at_checked(8).ok_or(TrisError::Short)?;
     let n = u64::from_le_bytes(head.try_into().expect("8 bytes"));
     if n.checked_mul(TRIANGLE_BYTES as u64) != Some(body.len() as u64) {
-        return Err(format!(
-            "count {n} needs {} bytes of triangles, the file has {}",
-            n as u128 * TRIANGLE_BYTES as u128,
-            body.len()
-        ));
+        return Err(TrisError::Length {
+            count: n,
+            needed: n as u128 * TRIANGLE_BYTES as u128,
+            got: body.len(),
+        });
     }
     let f = |b: &[u8]| f32::from_le_bytes(b.try_into().expect("4 bytes"));
     Ok(body
@@ -111,7 +122,12 @@ mod tests {
         assert!(read_triangles(&[0; 4]).is_err());
         let mut b = 1u64.to_le_bytes().to_vec();
         b.extend_from_slice(&[0; 35]);
-        assert!(read_triangles(&b).unwrap_err().contains("36 bytes"));
+        assert!(
+            read_triangles(&b)
+                .unwrap_err()
+                .to_string()
+                .contains("36 bytes")
+        );
         assert!(read_triangles(&u64::MAX.to_le_bytes()).is_err());
         assert!(read_triangles(&0u64.to_le_bytes()).unwrap().is_empty());
     }

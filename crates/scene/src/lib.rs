@@ -298,17 +298,9 @@ mod tests {
 /// Errors name the file and, where there is one, the line.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{path}:{line}: {message}")]
-    Parse {
-        path: PathBuf,
-        line: u64,
-        message: String,
-    },
+    /// A file that cannot be read, or a line of it that is wrong.
+    #[error(transparent)]
+    File(#[from] rtsim_core::FileError),
     #[error("{path}: {message}")]
     Format { path: PathBuf, message: String },
     #[error("unknown scene `{name}`; known scenes: {known}")]

@@ -172,17 +172,16 @@ pub fn load_scene(req: &SceneRequest<'_>) -> Result<Scene, SceneError> {
         }
         SceneSource::File(path) => {
             if !path.is_file() {
-                return Err(SceneError::Io {
-                    path: path.clone(),
-                    source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such scene file"),
-                });
+                return Err(rtsim_core::FileError::io(
+                    &path,
+                    std::io::Error::new(std::io::ErrorKind::NotFound, "no such scene file"),
+                )
+                .into());
             }
             let name = scene_name_of(&path);
             if is_descriptor_path(&path) {
-                let text = std::fs::read_to_string(&path).map_err(|source| SceneError::Io {
-                    path: path.clone(),
-                    source,
-                })?;
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|source| rtsim_core::FileError::io(&path, source))?;
                 let d = Descriptor::parse(&text, &path)?;
                 let base = match d.paths {
                     PathBase::Descriptor => {
@@ -396,11 +395,11 @@ mod tests {
         let e = load_scene(&req("/nonexistent/m.obj"))
             .unwrap_err()
             .to_string();
-        assert!(e.starts_with("/nonexistent/m.obj:"), "{e}");
+        assert!(e.contains("/nonexistent/m.obj:"), "{e}");
         let e = load_scene(&req("/nonexistent/d.toml"))
             .unwrap_err()
             .to_string();
-        assert!(e.starts_with("/nonexistent/d.toml:"), "{e}");
+        assert!(e.contains("/nonexistent/d.toml:"), "{e}");
         let e = load_scene(&req("nothing-like-this"))
             .unwrap_err()
             .to_string();

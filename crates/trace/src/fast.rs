@@ -58,6 +58,17 @@ pub struct Tri4 {
     ids: [u32; 4],
 }
 
+/// A BVH the fast path cannot collapse.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FastBvhError {
+    #[error("{0} triangles exceed the fast path's limit")]
+    TooManyTriangles(usize),
+    #[error("BVH node {0} does not point forward to its children")]
+    Backward(usize),
+    #[error("leaf of {0} triangles does not fit the fast path")]
+    LeafTooLarge(usize),
+}
+
 /// The wide BVH.
 #[derive(Clone, Debug, Default)]
 pub struct FastBvh {
@@ -65,34 +76,31 @@ pub struct FastBvh {
     packets: Vec<Tri4>,
     /// The root is a leaf (a scene of one small leaf).
     root_leaf: Option<u32>,
-    /// The CPU has AVX: box tests take eight lanes at once.
-    avx: bool,
+    /// Present when the CPU has AVX: box tests take eight lanes at once.
+    #[cfg(target_arch = "x86_64")]
+    avx: Option<avx::Avx>,
 }
 
 impl FastBvh {
     /// Collapse `bvh` (built over `triangles`, scene order) into an 8-wide BVH.
-    pub fn new(triangles: &[[Vec3; 3]], bvh: &Bvh) -> Result<FastBvh, String> {
+    pub fn new(triangles: &[[Vec3; 3]], bvh: &Bvh) -> Result<FastBvh, FastBvhError> {
         let mut f = FastBvh {
-            avx: cpu_has_avx(),
+            #[cfg(target_arch = "x86_64")]
+            avx: avx::Avx::detect(),
             ..FastBvh::default()
         };
         if bvh.nodes.is_empty() {
             return Ok(f);
         }
         if bvh.prim_ids.len() >= (FIRST_MASK as usize) * 4 {
-            return Err(format!(
-                "{} triangles exceed the fast path's limit",
-                bvh.prim_ids.len()
-            ));
+            return Err(FastBvhError::TooManyTriangles(bvh.prim_ids.len()));
         }
         let n = bvh.nodes.len();
         if let Some(i) = (0..n).find(|&i| {
             let c = bvh.nodes[i].index as usize;
             !bvh.nodes[i].is_leaf() && (c <= i || c + 1 >= n)
         }) {
-            return Err(format!(
-                "BVH node {i} does not point forward to its children"
-            ));
+            return Err(FastBvhError::Backward(i));
         }
         let sizes = subtree_sizes(bvh);
         let is_leaf = |k: usize| bvh.nodes[k].is_leaf() || sizes[k] <= MERGE_LEAVES;
@@ -129,7 +137,7 @@ impl FastBvh {
 
     /// Pack the triangles of the subtree at `k` into consecutive packets; returns the child
     /// reference.
-    fn leaf(&mut self, triangles: &[[Vec3; 3]], bvh: &Bvh, k: usize) -> Result<u32, String> {
+    fn leaf(&mut self, triangles: &[[Vec3; 3]], bvh: &Bvh, k: usize) -> Result<u32, FastBvhError> {
         let first = self.packets.len();
         let mut slots = Vec::new();
         let mut todo = vec![k];
@@ -164,10 +172,7 @@ impl FastBvh {
         }
         let count = self.packets.len() - first;
         if count == 0 || count > COUNT_MASK as usize + 1 {
-            return Err(format!(
-                "leaf of {} triangles does not fit the fast path",
-                slots.len()
-            ));
+            return Err(FastBvhError::LeafTooLarge(slots.len()));
         }
         Ok(LEAF | ((count as u32 - 1) << COUNT_SHIFT) | first as u32)
     }
@@ -193,21 +198,22 @@ impl FastBvh {
     #[inline]
     fn dispatch<const ANY: bool>(&self, ray: &Ray) -> Hit {
         #[cfg(target_arch = "x86_64")]
-        if self.avx {
-            // SAFETY: `avx` is set only when the CPU reports AVX.
-            return unsafe { self.traverse_avx::<ANY>(ray) };
+        if let Some(a) = self.avx {
+            // SAFETY: an `Avx` exists only when the CPU reports AVX.
+            return unsafe { self.traverse_avx::<ANY>(a, ray) };
         }
-        self.traverse::<ANY, Portable>(ray)
+        self.traverse::<ANY, Portable>(&Portable, ray)
     }
 
+    /// The traversal compiled with AVX enabled (the token proves the CPU has it).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn traverse_avx<const ANY: bool>(&self, ray: &Ray) -> Hit {
-        self.traverse::<ANY, avx::Avx>(ray)
+    unsafe fn traverse_avx<const ANY: bool>(&self, a: avx::Avx, ray: &Ray) -> Hit {
+        self.traverse::<ANY, avx::Avx>(&a, ray)
     }
 
     #[inline(always)]
-    fn traverse<const ANY: bool, B: Box8>(&self, ray: &Ray) -> Hit {
+    fn traverse<const ANY: bool, B: Box8>(&self, boxes: &B, ray: &Ray) -> Hit {
         let mut hit = Hit {
             t: ray.tmax,
             prim: NO_HIT,
@@ -236,7 +242,7 @@ impl FastBvh {
             // Inner node: eight box tests, then descend into the nearest hit child and push
             // the others far-to-near.
             let node = &self.nodes[cur as usize];
-            let (mut mask, tnear) = B::test(node, &rb, &near_side, ray.tmin, hit.t);
+            let (mut mask, tnear) = boxes.test(node, &rb, &near_side, ray.tmin, hit.t);
             let mut next = None;
             if mask != 0 {
                 let first = mask.trailing_zeros() as usize;
@@ -368,17 +374,6 @@ impl FastBvh {
     }
 }
 
-fn cpu_has_avx() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 fn empty_node() -> Node8 {
     Node8 {
         bounds: [[[f32::INFINITY; W], [f32::NEG_INFINITY; W]]; 3],
@@ -432,9 +427,18 @@ fn open_children(bvh: &Bvh, bi: usize, is_leaf: &dyn Fn(usize) -> bool) -> Vec<u
 /// positive direction, 1 (the maximum) for a negative one. Since `(min - o) · inv <=
 /// (max - o) · inv` for `inv >= 0` (rounding is monotonic), reading the near and far bounds
 /// directly gives exactly the slab test's `min(t0, t1)` and `max(t0, t1)`.
+///
+/// The method takes `&self` so that an implementation can demand proof of what it needs:
+/// a value of [`avx::Avx`] exists only after the CPU was found to have AVX.
 trait Box8 {
-    fn test(n: &Node8, r: &RayBox, near_side: &[usize; 3], tmin: f32, tmax: f32)
-    -> (u32, [f32; W]);
+    fn test(
+        &self,
+        n: &Node8,
+        r: &RayBox,
+        near_side: &[usize; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> (u32, [f32; W]);
 }
 
 /// Scalar lanes: the reference for the AVX version and the path without AVX.
@@ -443,6 +447,7 @@ struct Portable;
 impl Box8 for Portable {
     #[inline(always)]
     fn test(
+        &self,
         n: &Node8,
         r: &RayBox,
         _near_side: &[usize; 3],
@@ -475,19 +480,32 @@ mod avx {
     use super::*;
     use std::arch::x86_64::*;
 
-    pub(super) struct Avx;
+    /// Proof that the CPU has AVX: the only way to make one is [`Avx::detect`], so holding
+    /// one makes the AVX code safe to call (sound by construction).
+    #[derive(Clone, Copy, Debug)]
+    pub(super) struct Avx {
+        _proof: (),
+    }
+
+    impl Avx {
+        /// `Some` exactly when the CPU reports AVX.
+        pub(super) fn detect() -> Option<Avx> {
+            std::arch::is_x86_feature_detected!("avx").then_some(Avx { _proof: () })
+        }
+    }
 
     impl Box8 for Avx {
         #[inline(always)]
         fn test(
+            &self,
             n: &Node8,
             r: &RayBox,
             near_side: &[usize; 3],
             tmin: f32,
             tmax: f32,
         ) -> (u32, [f32; W]) {
-            // SAFETY: only instantiated inside `traverse_avx`, which requires AVX; `Node8` is
-            // 64-byte aligned and its arrays start at multiples of 32 bytes.
+            // SAFETY: `self` exists only if `Avx::detect` found AVX; `Node8` is 64-byte
+            // aligned and its arrays start at multiples of 32 bytes.
             unsafe { box8(n, r, near_side, tmin, tmax) }
         }
     }
@@ -710,13 +728,12 @@ mod tests {
         let mut fast = FastBvh::new(&tris, &median_bvh(&tris, 4)).unwrap();
         for r in &rays {
             #[cfg(target_arch = "x86_64")]
-            if fast.avx {
+            if let Some(a) = fast.avx {
                 let rb = RayBox::new(r);
                 for n in &fast.nodes {
-                    // SAFETY: the CPU has AVX.
                     let side = [0, 1, 2].map(|a| (rb.inv_dir[a] < 0.0) as usize);
-                    let (mask, near) = unsafe { avx_box(n, &rb, &side, r.tmin, r.tmax) };
-                    let (pmask, pnear) = Portable::test(n, &rb, &side, r.tmin, r.tmax);
+                    let (mask, near) = a.test(n, &rb, &side, r.tmin, r.tmax);
+                    let (pmask, pnear) = Portable.test(n, &rb, &side, r.tmin, r.tmax);
                     assert_eq!(mask, pmask);
                     // Entry distances matter only for lanes that were hit.
                     for l in (0..W).filter(|l| mask & (1 << l) != 0) {
@@ -733,22 +750,13 @@ mod tests {
         }
         // The portable traversal gives the same answers as the AVX one.
         let reference = fast.clone();
-        fast.avx = false;
+        #[cfg(target_arch = "x86_64")]
+        {
+            fast.avx = None;
+        }
         for r in &rays {
             assert_eq!(fast.closest_hit(r), reference.closest_hit(r));
         }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    unsafe fn avx_box(
-        n: &Node8,
-        rb: &RayBox,
-        side: &[usize; 3],
-        tmin: f32,
-        tmax: f32,
-    ) -> (u32, [f32; W]) {
-        <avx::Avx as Box8>::test(n, rb, side, tmin, tmax)
     }
 
     #[test]

@@ -25,7 +25,7 @@ pub use input::{Compression, open_decompressed};
 
 use crate::{LoadReport, Material, SceneError, Triangle, triangle_defect};
 use rtsim_core::{Affine, Vec3};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Triangles in file order with their materials: the contribution of one mesh to a scene.
 #[derive(Clone, Debug, Default)]
@@ -162,19 +162,12 @@ pub fn load_indexed(path: &Path) -> Result<IndexedMesh, SceneError> {
 
 /// An I/O error while reading `path` (decompression errors, truncated compressed streams).
 pub(crate) fn io_error(path: &Path, source: std::io::Error) -> SceneError {
-    SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
+    rtsim_core::FileError::io(path, source).into()
 }
 
 /// A parse error at a line of `path`.
 pub(crate) fn parse_error(path: &Path, line: u64, message: impl Into<String>) -> SceneError {
-    SceneError::Parse {
-        path: PathBuf::from(path),
-        line,
-        message: message.into(),
-    }
+    rtsim_core::FileError::at(path, line, message.into()).into()
 }
 
 #[cfg(test)]
