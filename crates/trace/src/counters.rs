@@ -14,8 +14,8 @@
 //!   entry distance, one local-memory write each; `bit-stack`: one bit per level descended);
 //! - `stack_pops`: entries popped (local-memory reads for `stack`; bits for `bit-stack`),
 //!   culled ones included;
-//! - `stack_culls`: popped entries discarded because a closer hit was found since they were
-//!   pushed (no node fetch);
+//! - `stack_culls`: popped entries discarded because their entry distance is beyond the
+//!   closest hit found since they were pushed (no node fetch);
 //! - `max_stack`: deepest stack occupancy (entries; bits for `bit-stack`);
 //! - `parent_fetches`: `bit-stack`: parent pointers read to move up the tree;
 //! - `sibling_retests`: `bit-stack`: sibling boxes tested again on the way up (the price of

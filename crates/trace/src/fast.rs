@@ -311,7 +311,8 @@ impl FastBvh {
                         sp -= 1;
                         // SAFETY: entries below `sp` were written by the pushes above.
                         let (c, t) = unsafe { stack[sp].assume_init() };
-                        if t < hit.t {
+                        // Inclusive, as in the reference traversal.
+                        if t <= hit.t {
                             break c;
                         }
                     },

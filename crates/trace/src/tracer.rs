@@ -1,5 +1,7 @@
 //! [`Tracer`]: a BVH plus the triangle records of the selected kernel, answering closest-hit
-//! and any-hit queries through the reference traversal, with counters.
+//! and any-hit queries through the configured traversal variant (`trace.traversal`: the
+//! closed `stack` loop, or a stepped variant run to its end), with counters; and the stepped
+//! interface (`start`/`step`) the hardware models drive.
 
 use crate::config::{TraceConfig, Traversal, TraversalOrder, TriangleTest};
 use crate::counters::RayCounters;

@@ -7,7 +7,7 @@
 //! children's boxes against `[tmin, closest t]`; if both are hit, descend into the nearer one
 //! (or the left one, for `left-first`) and push the other with its entry distance; at a leaf,
 //! test its triangles, shrinking the interval on every hit; then pop, discarding entries whose
-//! entry distance is not closer than the closest hit.
+//! entry distance is beyond the closest hit.
 
 use crate::counters::RayCounters;
 use crate::kernels::{RayBox, TriKernel, slab_test};
@@ -147,7 +147,10 @@ pub fn traverse<K: TriKernel, const ANY: bool>(
             c.stack_pops += 1;
             // SAFETY: entries below `sp` were written by the pushes above.
             let (n, t_entry) = unsafe { stack[sp].assume_init() };
-            if t_entry < hit.t {
+            // Inclusive, as the box test is (`near <= far` with far clipped at the closest
+            // hit): a box entered exactly at the closest distance can still hold a closer hit
+            // after rounding, and every variant must make the same decision here.
+            if t_entry <= hit.t {
                 node = n;
                 break;
             }

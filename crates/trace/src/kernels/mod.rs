@@ -1,4 +1,6 @@
-//! Intersection kernels shared by the functional tracer and (later) the hardware models.
+//! Intersection kernels shared by the functional tracer, the stepped traversals the hardware
+//! models run, and the operation counts (`crate::ops`): each is generic over
+//! [`rtsim_core::Real`], and each triangle test reports which exit it took.
 //!
 //! - [`slab`]: ray–box slab test with a precomputed inverse direction.
 //! - [`triangle`]: three ray–triangle tests that agree away from edges: Möller–Trumbore (the

@@ -273,7 +273,8 @@ pub fn step<K: TriKernel>(d: &Data<'_, K>, s: &mut State, c: &mut RayCounters) -
             let depth = (s.bottom + s.len) % s.capacity;
             c.stack_pops += 1;
             let (node, t_entry) = s.stack[depth as usize];
-            let culled = t_entry >= s.hit.t || t_entry.is_nan();
+            // Beyond the closest hit (inclusive resume, as in the closed loop).
+            let culled = t_entry > s.hit.t || t_entry.is_nan();
             if culled {
                 c.stack_culls += 1;
                 // Nothing closer in there: that level is finished too.

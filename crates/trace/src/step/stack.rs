@@ -217,7 +217,8 @@ pub fn step<K: TriKernel>(d: &Data<'_, K>, s: &mut State, c: &mut RayCounters) -
             s.sp -= 1;
             c.stack_pops += 1;
             let (node, t_entry) = s.stack[s.sp as usize];
-            let culled = t_entry >= s.hit.t || t_entry.is_nan();
+            // Beyond the closest hit (inclusive resume, as in the closed loop).
+            let culled = t_entry > s.hit.t || t_entry.is_nan();
             if culled {
                 c.stack_culls += 1;
             } else {
