@@ -26,8 +26,8 @@
 //! - `restarts`: `short-stack`: traversals restarted from the root because a dropped entry
 //!   was still pending.
 
+use rtsim_stats_derive::Stats;
 use serde::{Deserialize, Serialize};
-use std::ops::AddAssign;
 
 /// Work done by one ray.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -47,8 +47,8 @@ pub struct RayCounters {
     pub restarts: u32,
 }
 
-/// Sums over many rays of one kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// Sums over many rays of one kind (`+=` merges every field: the derive leaves none out).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, Stats)]
 pub struct CounterTotals {
     pub rays: u64,
     pub hits: u64,
@@ -60,6 +60,7 @@ pub struct CounterTotals {
     pub stack_pops: u64,
     pub stack_culls: u64,
     /// Deepest stack seen by any ray.
+    #[stats(max)]
     pub max_stack: u64,
     pub parent_fetches: u64,
     pub sibling_retests: u64,
@@ -90,22 +91,34 @@ impl CounterTotals {
     }
 }
 
-impl AddAssign for CounterTotals {
-    fn add_assign(&mut self, o: CounterTotals) {
-        self.rays += o.rays;
-        self.hits += o.hits;
-        self.nodes_visited += o.nodes_visited;
-        self.leaves_visited += o.leaves_visited;
-        self.box_tests += o.box_tests;
-        self.tri_tests += o.tri_tests;
-        self.stack_pushes += o.stack_pushes;
-        self.stack_pops += o.stack_pops;
-        self.stack_culls += o.stack_culls;
-        self.max_stack = self.max_stack.max(o.max_stack);
-        self.parent_fetches += o.parent_fetches;
-        self.sibling_retests += o.sibling_retests;
-        self.treelet_crossings += o.treelet_crossings;
-        self.stack_overflows += o.stack_overflows;
-        self.restarts += o.restarts;
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::{Value, json};
+
+    #[test]
+    fn totals_merge_every_field() {
+        rtsim_sim::testing::assert_merges_every_field(&CounterTotals::default());
+    }
+
+    /// `record` carries every per-ray counter into the totals.
+    #[test]
+    fn record_covers_every_counter() {
+        let Value::Object(mut fields) = json!(RayCounters::default()) else {
+            unreachable!()
+        };
+        for v in fields.values_mut() {
+            *v = json!(3);
+        }
+        let c: RayCounters = serde_json::from_value(Value::Object(fields.clone())).unwrap();
+        let mut t = CounterTotals::default();
+        t.record(&c, true);
+        let Value::Object(totals) = json!(t) else {
+            unreachable!()
+        };
+        for k in fields.keys() {
+            assert_eq!(totals[k], json!(3), "record() leaves out `{k}`");
+        }
+        assert_eq!((t.rays, t.hits), (1, 1));
     }
 }

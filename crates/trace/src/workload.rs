@@ -22,11 +22,11 @@ use crate::traverse::SlotHit;
 use rtsim_core::rng::stream_seed;
 use rtsim_core::{Pcg32, Ray, Vec3};
 use rtsim_scene::{Material, Scene};
+use rtsim_stats_derive::Stats;
 use serde::{Deserialize, Serialize};
-use std::ops::AddAssign;
 
 /// Counters per ray kind for a frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, Stats)]
 pub struct FrameStats {
     pub primary: CounterTotals,
     /// Path tracing: shadow rays to the point light.
@@ -88,17 +88,6 @@ impl FrameStats {
             RayKind::Diffuse => &mut self.diffuse,
             RayKind::Specular => &mut self.specular,
         }
-    }
-}
-
-impl AddAssign for FrameStats {
-    fn add_assign(&mut self, o: FrameStats) {
-        self.primary += o.primary;
-        self.shadow += o.shadow;
-        self.bounce += o.bounce;
-        self.ao += o.ao;
-        self.diffuse += o.diffuse;
-        self.specular += o.specular;
     }
 }
 
