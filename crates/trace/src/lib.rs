@@ -42,8 +42,8 @@ pub use kernels::TriKernel;
 pub use step::{Query, Step};
 pub use tracer::{Hit, NO_HIT, Tracer, TracerError, TraversalState, brute_force_closest};
 pub use workload::{
-    FrameStats, Integrator, Kernel, Next, PathState, PixelResult, RayId, RayJob, RayKind, Resumed,
-    Shading, TraceResult, WorkloadParams,
+    FrameStats, Integrator, Kernel, Next, PathState, PixelResult, RayId, RayJob, RayKind, Record,
+    RecordAccess, Resumed, Shading, TraceResult, WorkloadParams,
 };
 
 #[cfg(test)]

@@ -222,7 +222,61 @@ pub struct Shading {
     pub framebuffer: Option<u32>,
 }
 
+/// Which record a transition touched.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Record {
+    /// The hit triangle's vertices.
+    Triangle,
+    Material,
+    /// The pixel's framebuffer entry.
+    Framebuffer,
+}
+
+/// One record a transition read or wrote, located in the memory image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RecordAccess {
+    pub record: Record,
+    /// First byte and bytes touched (the fields used, not the record's padding).
+    pub addr: u64,
+    pub bytes: u32,
+    pub write: bool,
+    pub lines: rtsim_bvh::LineSpan,
+}
+
 impl Shading {
+    /// The records this transition read or wrote, with their addresses and cache lines: the
+    /// hit triangle's vertices (36 bytes of its record), its material, the framebuffer pixel.
+    /// Materials and the framebuffer are located only if the image has their regions
+    /// (`MemoryImage::build` with the run's `ImageExtras`, as every command builds it).
+    pub fn accesses(
+        &self,
+        image: &rtsim_bvh::MemoryImage,
+        line_bytes: u32,
+    ) -> impl Iterator<Item = RecordAccess> + use<> {
+        use rtsim_bvh::{RecordKind, lines_touched};
+        let at = |record, addr, bytes, write| RecordAccess {
+            record,
+            addr,
+            bytes,
+            write,
+            lines: lines_touched(addr, bytes, line_bytes),
+        };
+        let vertices = self
+            .triangle
+            .map(|slot| at(Record::Triangle, image.triangle_addr(slot), 36, false));
+        let region = |kind: RecordKind, i: u32, record, write| {
+            let set = image.records(kind)?;
+            Some(at(record, set.placement.addr(i), set.data_bytes, write))
+        };
+        let material = self
+            .material
+            .and_then(|m| region(RecordKind::Material, m, Record::Material, false));
+        let pixel = self
+            .framebuffer
+            .and_then(|p| region(RecordKind::Pixel, p, Record::Framebuffer, true));
+        [vertices, material, pixel].into_iter().flatten()
+    }
+
     #[inline(always)]
     fn run(&mut self, k: Kernel) {
         self.kernels[k as usize] += 1;
@@ -821,6 +875,45 @@ mod tests {
                 assert_eq!(stats, reference, "{kind:?}");
             }
         }
+    }
+
+    #[test]
+    fn shading_locates_its_records_in_the_image() {
+        let scene = cornell();
+        let bvh = rtsim_bvh::build(
+            &scene.triangles,
+            &Default::default(),
+            rtsim_bvh::NodeOrder::DepthFirst,
+        )
+        .unwrap();
+        let cfg = rtsim_bvh::MemoryLayoutConfig::default();
+        let extras =
+            rtsim_bvh::ImageExtras::for_run(&cfg, false, scene.materials.len() as u32, 24, 18);
+        let image = rtsim_bvh::MemoryImage::build(&bvh, &cfg, &extras).unwrap();
+        let tracer = Tracer::new(&scene.triangles, bvh, &TraceConfig::default()).unwrap();
+        let integ = Integrator::new(&scene, &tracer, params(WorkloadKind::Path, 1));
+        let mut seen = [false; 3];
+        for pixel in 0..24 * 18 {
+            let (mut st, mut r) = integ.begin(pixel);
+            while let Next::Trace(job) = r.next {
+                let res = integ.trace(&job, &mut RayCounters::default());
+                r = integ.resume(&mut st, &job, &res);
+                for a in r.shading.accesses(&image, 64) {
+                    let want = match a.record {
+                        Record::Triangle => image.triangle_addr(res.slot),
+                        Record::Material => {
+                            image.material_addr(scene.material_ids[res.hit.prim as usize])
+                        }
+                        Record::Framebuffer => image.framebuffer_addr(pixel),
+                    };
+                    assert_eq!(a.addr, want);
+                    assert_eq!(a.write, a.record == Record::Framebuffer);
+                    assert!(a.lines.count >= 1);
+                    seen[a.record as usize] = true;
+                }
+            }
+        }
+        assert_eq!(seen, [true; 3]);
     }
 
     #[test]

@@ -135,9 +135,27 @@ impl Step {
 }
 
 impl Access {
+    /// Like [`Access::lines`], with triangle records in the format `test` reads: Wald's
+    /// precomputed record (its own region of the image) for `wald`, the vertex record
+    /// otherwise.
+    pub fn lines_for(
+        &self,
+        image: &MemoryImage,
+        line_bytes: u32,
+        test: crate::TriangleTest,
+    ) -> Option<LineSpan> {
+        match (*self, test) {
+            (Access::Triangle(slot), crate::TriangleTest::Wald) => {
+                Some(image.wald_lines(slot, line_bytes))
+            }
+            _ => self.lines(image, line_bytes),
+        }
+    }
+
     /// The cache lines of `line_bytes` that the access touches in the memory image (none for
-    /// register and local-memory accesses). A pair touches the lines of both records (one
-    /// line with the default 32-byte nodes and aligned pairs).
+    /// register and local-memory accesses; triangle records as vertex records — see
+    /// [`Access::lines_for`] for Wald's). A pair touches the lines of both records (one line
+    /// with the default 32-byte nodes and aligned pairs).
     pub fn lines(&self, image: &MemoryImage, line_bytes: u32) -> Option<LineSpan> {
         match *self {
             Access::None | Access::Stack { .. } => None,
