@@ -103,6 +103,15 @@ pub fn check_positive(key: &str, v: f64) -> Result<(), ConfigError> {
     }
 }
 
+/// An assignment that does not fit the tree's shape.
+#[derive(Debug, thiserror::Error)]
+enum ShapeError {
+    #[error("`{0}` is a value, not a section")]
+    NotASection(String),
+    #[error("`{0}` is a section; set one of its keys instead")]
+    IsASection(String),
+}
+
 /// A stack of merged TOML layers.
 #[derive(Clone, Debug, Default)]
 pub struct Layers {
@@ -202,7 +211,8 @@ impl Layers {
             return Err(bad("empty key or key segment"));
         }
         let value = parse_value(raw.trim());
-        self.set_value_inner(key, value).map_err(|m| bad(&m))?;
+        self.set_value_inner(key, value)
+            .map_err(|e| bad(&e.to_string()))?;
         self.origins.push(format!("--set {assignment}"));
         Ok(())
     }
@@ -213,7 +223,7 @@ impl Layers {
             .map_err(|m| ConfigError::key(dotted, m))
     }
 
-    fn set_value_inner(&mut self, dotted: &str, value: Value) -> Result<(), String> {
+    fn set_value_inner(&mut self, dotted: &str, value: Value) -> Result<(), ShapeError> {
         let parts: Vec<&str> = dotted.split('.').map(str::trim).collect();
         let (last, parents) = parts.split_last().expect("split yields at least one part");
         let mut cur = &mut self.root;
@@ -223,20 +233,13 @@ impl Layers {
                 .or_insert_with(|| Value::Table(Table::new()));
             cur = match entry {
                 Value::Table(t) => t,
-                _ => {
-                    return Err(format!(
-                        "`{}` is a value, not a section",
-                        parts[..=i].join(".")
-                    ));
-                }
+                _ => return Err(ShapeError::NotASection(parts[..=i].join("."))),
             };
         }
         match (cur.get_mut(*last), value) {
             (Some(Value::Table(existing)), Value::Table(new)) => deep_merge(existing, new),
             (Some(Value::Table(_)), _) => {
-                return Err(format!(
-                    "`{dotted}` is a section; set one of its keys instead"
-                ));
+                return Err(ShapeError::IsASection(dotted.to_string()));
             }
             (_, value) => {
                 cur.insert(last.to_string(), value);
