@@ -16,6 +16,8 @@ pub enum Command {
     Render(RenderArgs),
     /// Run a frame on an architecture model (--arch): image, cycle heat map, stats.json.
     Simulate(crate::commands::simulate::SimulateArgs),
+    /// Run every point of an experiment, resumably, locally or as a Slurm array; merge results.
+    Sweep(crate::commands::sweep::SweepArgs),
     /// Answer ray queries from a binary file (see README: rays.bin / hits.bin).
     Trace(TraceArgs),
     /// Write the scene's triangles in hit-index order (see README: tris.bin).

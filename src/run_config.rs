@@ -14,6 +14,7 @@ pub type Flag = (&'static str, Value);
 pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
     let mut i = rtsim_run::Inputs {
         config_file: args.config.clone(),
+        config_text: None,
         flags: Vec::new(),
         sets: args.set.clone(),
     };

@@ -8,6 +8,7 @@ pub mod export;
 pub mod render;
 pub mod scenes;
 pub mod simulate;
+pub mod sweep;
 pub mod trace;
 
 use crate::cli::{Cli, Command};
@@ -17,6 +18,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(a) => render::run(a),
         Command::Simulate(a) => simulate::run(a),
+        Command::Sweep(a) => sweep::run(a),
         Command::Trace(a) => trace::run(a),
         Command::ExportTriangles(a) => export::run(a),
         Command::BvhStats(a) => bvh_stats::run(a),

@@ -186,6 +186,8 @@ fn prefixed(section: &str, e: ConfigError) -> ConfigError {
 pub struct Inputs {
     /// `--config FILE`.
     pub config_file: Option<PathBuf>,
+    /// Config text merged where a file would be (origin, text): a sweep's point settings.
+    pub config_text: Option<(String, String)>,
     /// Typed flags as dotted keys (`--scene` → `scene.name`, `--width` → `workload.width` …).
     pub flags: Vec<(String, Value)>,
     /// `--set key=value`, in order.
@@ -229,6 +231,9 @@ fn upper_layers(
     }
     if let Some(path) = &inputs.config_file {
         l.merge_file(path)?;
+    }
+    if let Some((origin, text)) = &inputs.config_text {
+        l.merge_str(text, origin)?;
     }
     for (key, value) in &inputs.flags {
         l.set_value(key, value.clone())?;

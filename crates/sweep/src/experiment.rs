@@ -1,0 +1,483 @@
+//! Experiment files and their points.
+//!
+//! ```toml
+//! name = "strata-fig7"          # names the results directory (results/strata-fig7)
+//! command = "simulate"          # render | simulate | dram | cache | bench | bvh-stats
+//! args = ["--arch", "strata"]   # optional: fixed command-line arguments of every point
+//!
+//! [base]                        # settings every point shares: dotted keys or nested tables
+//! "scene.name" = "sibenik"
+//! workload = { width = 256, height = 256 }
+//!
+//! [grid]                        # every combination is a point; the last key varies fastest
+//! "arch.preset" = ["trax-baseline", "strata"]
+//! "arch.trax.tms" = [1, 2, 4, 8]
+//!
+//! [[point]]                     # explicit points, after the grid's, each over [base]
+//! "scene.name" = "dragon-box"
+//!
+//! [quick]                       # with --quick: overrides for every point (minutes, not hours)
+//! "workload.width" = 32
+//! ```
+//!
+//! Keys are the command's configuration keys (for `dram`, keys under `dram.`, as its
+//! `--config` file takes a `[dram]` table). Grid keys vary in alphabetical order (TOML tables
+//! are sorted), the last fastest; points are numbered grid first, then `[[point]]`s in file
+//! order; with neither, the experiment is one point. Each point's settings are written as a
+//! config file the command reads with `--config`, so every point is also an ordinary run that
+//! `config.resolved.toml` repeats.
+
+use crate::SweepError;
+use rtsim_config::Layers;
+use serde_json::Value as Json;
+use std::path::{Path, PathBuf};
+use toml::{Table, Value};
+
+/// Most points one experiment may have (a runaway grid is a typo, not an experiment).
+pub const MAX_POINTS: usize = 1_000_000;
+
+/// The rtsim command an experiment runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SweepCommand {
+    Render,
+    Simulate,
+    Dram,
+    Cache,
+    Bench,
+    BvhStats,
+}
+
+impl SweepCommand {
+    pub const ALL: [SweepCommand; 6] = [
+        SweepCommand::Render,
+        SweepCommand::Simulate,
+        SweepCommand::Dram,
+        SweepCommand::Cache,
+        SweepCommand::Bench,
+        SweepCommand::BvhStats,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SweepCommand::Render => "render",
+            SweepCommand::Simulate => "simulate",
+            SweepCommand::Dram => "dram",
+            SweepCommand::Cache => "cache",
+            SweepCommand::Bench => "bench",
+            SweepCommand::BvhStats => "bvh-stats",
+        }
+    }
+
+    fn parse(s: &str) -> Option<SweepCommand> {
+        Self::ALL.into_iter().find(|c| c.name() == s)
+    }
+
+    /// Whether the command writes into an `--out DIR` (else its standard output is the result).
+    pub fn has_out_dir(self) -> bool {
+        !matches!(self, SweepCommand::Bench | SweepCommand::BvhStats)
+    }
+
+    /// Whether the command reads the run configuration (with its `threads` key).
+    pub fn reads_run_config(self) -> bool {
+        !matches!(self, SweepCommand::Dram | SweepCommand::Cache)
+    }
+
+    /// The deterministic statistics file whose values become the point's metrics.
+    pub fn stats_file(self) -> Option<&'static str> {
+        match self {
+            SweepCommand::Render | SweepCommand::Simulate => Some("stats.json"),
+            SweepCommand::Dram => Some("dram_stats.json"),
+            SweepCommand::Cache => Some("cache_stats.json"),
+            SweepCommand::Bench | SweepCommand::BvhStats => None,
+        }
+    }
+}
+
+/// A parsed, validated experiment.
+#[derive(Clone, Debug)]
+pub struct Experiment {
+    /// The file it was read from.
+    pub path: PathBuf,
+    pub name: String,
+    pub command: SweepCommand,
+    /// Fixed command-line arguments of every point.
+    pub args: Vec<String>,
+    base: Vec<(String, Value)>,
+    grid: Vec<(String, Vec<Value>)>,
+    points: Vec<Vec<(String, Value)>>,
+    quick: Vec<(String, Value)>,
+}
+
+/// One run of an experiment.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    /// Position in the experiment's order, from 0.
+    pub index: usize,
+    /// What distinguishes this point: its grid values and explicit settings, sorted by key.
+    pub params: Vec<(String, Value)>,
+    /// The config file the command reads (`--config`): base, params, quick overrides.
+    pub config_toml: String,
+}
+
+impl Point {
+    /// The parameters as JSON (for records and result tables).
+    pub fn params_json(&self) -> serde_json::Map<String, Json> {
+        self.params
+            .iter()
+            .map(|(k, v)| (k.clone(), toml_to_json(v)))
+            .collect()
+    }
+}
+
+/// A TOML value as JSON (datetimes as strings).
+pub fn toml_to_json(v: &Value) -> Json {
+    match v {
+        Value::String(s) => Json::String(s.clone()),
+        Value::Integer(i) => Json::from(*i),
+        Value::Float(f) => serde_json::Number::from_f64(*f).map_or(Json::Null, Json::Number),
+        Value::Boolean(b) => Json::Bool(*b),
+        Value::Datetime(d) => Json::String(d.to_string()),
+        Value::Array(a) => Json::Array(a.iter().map(toml_to_json).collect()),
+        Value::Table(t) => Json::Object(
+            t.iter()
+                .map(|(k, v)| (k.clone(), toml_to_json(v)))
+                .collect(),
+        ),
+    }
+}
+
+/// Flatten a table into (dotted key, leaf value) pairs; arrays are leaves.
+fn flatten(prefix: &str, t: &Table, out: &mut Vec<(String, Value)>) {
+    for (k, v) in t {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            Value::Table(inner) => flatten(&key, inner, out),
+            _ => out.push((key, v.clone())),
+        }
+    }
+}
+
+impl Experiment {
+    /// Read and validate an experiment file.
+    pub fn load(path: &Path) -> Result<Experiment, SweepError> {
+        let text = std::fs::read_to_string(path).map_err(|e| rtsim_core::FileError::io(path, e))?;
+        Experiment::parse(&text, path)
+    }
+
+    /// Parse and validate experiment text; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Experiment, SweepError> {
+        let origin = path.display().to_string();
+        let mut root =
+            rtsim_config::parse_toml(text, &origin).map_err(|e| SweepError::invalid(path, e))?;
+        let bad = |m: String| SweepError::invalid(path, m);
+        let name = match root.remove("name") {
+            Some(Value::String(s)) => s,
+            Some(v) => return Err(bad(format!("`name` must be a string, found {v}"))),
+            None => {
+                return Err(bad(
+                    "`name` is missing (it names the results directory)".into()
+                ));
+            }
+        };
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+            || name.starts_with('.')
+        {
+            return Err(bad(format!(
+                "`name` = {name:?}: use letters, digits, `-`, `_` and `.` (it names a directory)"
+            )));
+        }
+        let known: Vec<&str> = SweepCommand::ALL.iter().map(|c| c.name()).collect();
+        let command = match root.remove("command") {
+            Some(Value::String(s)) => SweepCommand::parse(&s).ok_or_else(|| {
+                bad(format!(
+                    "`command` = {s:?} is not a command a sweep runs; known: {}",
+                    known.join(", ")
+                ))
+            })?,
+            Some(v) => return Err(bad(format!("`command` must be a string, found {v}"))),
+            None => {
+                return Err(bad(format!(
+                    "`command` is missing; one of {}",
+                    known.join(", ")
+                )));
+            }
+        };
+        let args = match root.remove("args") {
+            None => Vec::new(),
+            Some(Value::Array(a)) => a
+                .into_iter()
+                .map(|v| match v {
+                    Value::String(s) => Ok(s),
+                    other => Err(bad(format!("`args` must hold strings, found {other}"))),
+                })
+                .collect::<Result<_, _>>()?,
+            Some(v) => {
+                return Err(bad(format!(
+                    "`args` must be an array of strings, found {v}"
+                )));
+            }
+        };
+        for reserved in ["--config", "--set", "--out", "--threads"] {
+            if args
+                .iter()
+                .any(|a| a == reserved || a.starts_with(&format!("{reserved}=")))
+            {
+                return Err(bad(format!(
+                    "`args` may not contain {reserved}: the sweep sets it for each point \
+                     (put settings in [base], [grid] or [[point]])"
+                )));
+            }
+        }
+        let section = |root: &mut Table, key: &str| -> Result<Vec<(String, Value)>, SweepError> {
+            match root.remove(key) {
+                None => Ok(Vec::new()),
+                Some(Value::Table(t)) => {
+                    let mut v = Vec::new();
+                    flatten("", &t, &mut v);
+                    Ok(v)
+                }
+                Some(v) => Err(SweepError::invalid(
+                    path,
+                    format!("[{key}] must be a table, found {v}"),
+                )),
+            }
+        };
+        let base = section(&mut root, "base")?;
+        let quick = section(&mut root, "quick")?;
+        let mut grid = Vec::new();
+        for (key, values) in section(&mut root, "grid")? {
+            match values {
+                Value::Array(a) if !a.is_empty() => grid.push((key, a)),
+                Value::Array(_) => {
+                    return Err(bad(format!("grid key `{key}` has no values")));
+                }
+                other => {
+                    return Err(bad(format!(
+                        "grid key `{key}` must list its values in an array, found {other}"
+                    )));
+                }
+            }
+        }
+        let points = match root.remove("point") {
+            None => Vec::new(),
+            Some(Value::Array(a)) => a
+                .into_iter()
+                .enumerate()
+                .map(|(i, v)| match v {
+                    Value::Table(t) => {
+                        let mut out = Vec::new();
+                        flatten("", &t, &mut out);
+                        Ok(out)
+                    }
+                    other => Err(bad(format!("[[point]] {i} must be a table, found {other}"))),
+                })
+                .collect::<Result<_, _>>()?,
+            Some(v) => return Err(bad(format!("`point` must be [[point]] tables, found {v}"))),
+        };
+        if let Some(k) = root.keys().next() {
+            return Err(bad(format!(
+                "unknown key `{k}`; an experiment has name, command, args, [base], [grid], \
+                 [[point]] and [quick]"
+            )));
+        }
+        let grid_count = if grid.is_empty() {
+            0
+        } else {
+            grid.iter()
+                .try_fold(1usize, |n, (_, v)| n.checked_mul(v.len()))
+                .unwrap_or(usize::MAX)
+        };
+        let count = grid_count.saturating_add(points.len());
+        if count > MAX_POINTS {
+            return Err(bad(format!(
+                "{count} points, more than the {MAX_POINTS} a sweep runs (check the grid)"
+            )));
+        }
+        let e = Experiment {
+            path: path.to_path_buf(),
+            name,
+            command,
+            args,
+            base,
+            grid,
+            points,
+            quick,
+        };
+        // Every point must assemble into a config tree (a key that clashes with a section …).
+        e.points(true)?;
+        e.points(false)?;
+        Ok(e)
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        let grid = if self.grid.is_empty() {
+            0
+        } else {
+            self.grid.iter().map(|(_, v)| v.len()).product()
+        };
+        (grid + self.points.len()).max(1)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The points, in order; `quick` applies the `[quick]` overrides.
+    pub fn points(&self, quick: bool) -> Result<Vec<Point>, SweepError> {
+        let mut params: Vec<Vec<(String, Value)>> = Vec::new();
+        if !self.grid.is_empty() {
+            let mut idx = vec![0usize; self.grid.len()];
+            loop {
+                params.push(
+                    self.grid
+                        .iter()
+                        .zip(&idx)
+                        .map(|((k, v), &i)| (k.clone(), v[i].clone()))
+                        .collect(),
+                );
+                // Odometer: the last key fastest.
+                let mut d = self.grid.len();
+                loop {
+                    if d == 0 {
+                        break;
+                    }
+                    d -= 1;
+                    idx[d] += 1;
+                    if idx[d] < self.grid[d].1.len() {
+                        break;
+                    }
+                    idx[d] = 0;
+                    if d == 0 {
+                        d = usize::MAX;
+                        break;
+                    }
+                }
+                if d == usize::MAX {
+                    break;
+                }
+            }
+        }
+        params.extend(self.points.iter().cloned());
+        if params.is_empty() {
+            params.push(Vec::new());
+        }
+        params
+            .into_iter()
+            .enumerate()
+            .map(|(index, mut p)| {
+                p.sort_by(|a, b| a.0.cmp(&b.0));
+                let mut l = Layers::new();
+                let quick_layer: &[(String, Value)] = if quick { &self.quick } else { &[] };
+                for (k, v) in self.base.iter().chain(&p).chain(quick_layer) {
+                    l.set_value(k, v.clone()).map_err(|e| {
+                        SweepError::invalid(&self.path, format!("point {index}: {e}"))
+                    })?;
+                }
+                let config_toml = toml::to_string(l.table())
+                    .map_err(|e| SweepError::invalid(&self.path, format!("point {index}: {e}")))?;
+                Ok(Point {
+                    index,
+                    params: p,
+                    config_toml,
+                })
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Experiment, SweepError> {
+        Experiment::parse(text, Path::new("exp.toml"))
+    }
+
+    #[test]
+    fn grid_points_in_order_then_explicit_points() {
+        let e = parse(
+            r#"
+            name = "t"
+            command = "render"
+            [base]
+            "scene.name" = "cornell"
+            workload = { width = 8 }
+            [grid]
+            "workload.spp" = [1, 2]
+            "bvh.max_leaf_size" = [2, 4, 8]
+            [[point]]
+            "scene.name" = "sibenik"
+            [quick]
+            "workload.height" = 4
+            "#,
+        )
+        .unwrap();
+        assert_eq!(e.len(), 7);
+        let p = e.points(false).unwrap();
+        assert_eq!(p.len(), 7);
+        // Keys in alphabetical order, the last one fastest.
+        let keys: Vec<String> = p
+            .iter()
+            .take(6)
+            .map(|p| format!("{}/{}", p.params[0].1, p.params[1].1))
+            .collect();
+        assert_eq!(keys, ["2/1", "2/2", "4/1", "4/2", "8/1", "8/2"]);
+        assert_eq!(p[6].params, vec![("scene.name".into(), "sibenik".into())]);
+        let cfg: Table = p[3].config_toml.parse().unwrap();
+        assert_eq!(cfg["workload"]["width"].as_integer(), Some(8));
+        assert_eq!(cfg["workload"]["spp"].as_integer(), Some(2));
+        assert_eq!(cfg["bvh"]["max_leaf_size"].as_integer(), Some(4));
+        assert!(cfg["workload"].get("height").is_none());
+        let q: Table = e.points(true).unwrap()[0].config_toml.parse().unwrap();
+        assert_eq!(q["workload"]["height"].as_integer(), Some(4));
+    }
+
+    #[test]
+    fn no_grid_is_one_point() {
+        let e = parse("name = \"one\"\ncommand = \"bench\"\n").unwrap();
+        assert_eq!(e.len(), 1);
+        assert_eq!(e.points(false).unwrap()[0].params, vec![]);
+    }
+
+    #[test]
+    fn bad_experiments_say_what_is_wrong() {
+        for (text, needle) in [
+            ("command = \"render\"", "`name` is missing"),
+            ("name = \"../x\"\ncommand = \"render\"", "names a directory"),
+            ("name = \"x\"\ncommand = \"paint\"", "known: render"),
+            ("name = \"x\"\ncommand = \"render\"\n[grid]\na = 1", "array"),
+            (
+                "name = \"x\"\ncommand = \"render\"\n[grid]\na = []",
+                "no values",
+            ),
+            (
+                "name = \"x\"\ncommand = \"render\"\ncolour = 1",
+                "unknown key `colour`",
+            ),
+            (
+                "name = \"x\"\ncommand = \"render\"\nargs = [\"--out\", \"y\"]",
+                "--out",
+            ),
+            (
+                "name = \"x\"\ncommand = \"render\"\n[base]\nworkload = 1\n[grid]\n\"workload.spp\" = [1]",
+                "not a section",
+            ),
+            (
+                "name = \"x\"\ncommand = \"render\"\n[grid]\na = [1,2,3,4,5,6,7,8,9,10]\nb = [1,2,3,4,5,6,7,8,9,10]\nc = [1,2,3,4,5,6,7,8,9,10]\nd = [1,2,3,4,5,6,7,8,9,10]\ne = [1,2,3,4,5,6,7,8,9,10]\nf = [1,2,3,4,5,6,7,8,9,10]\ng = [1,2]",
+                "more than",
+            ),
+            ("name = \"x\"\ncommand = \"render\"\n[base\n", "exp.toml"),
+        ] {
+            let e = parse(text).unwrap_err().to_string();
+            assert!(e.contains(needle), "{text}: {e}");
+        }
+    }
+}

@@ -1,0 +1,124 @@
+//! Batch-scheduler scripts: one Slurm array task per point, and a merge job that runs after
+//! all of them.
+//!
+//! `rtsim sweep EXP --emit-slurm DIR` writes `DIR/points.sbatch` (an array job whose task `i`
+//! runs `rtsim sweep EXP --point i`), `DIR/merge.sbatch` (`rtsim sweep EXP --merge`) and
+//! `DIR/submit.sh`, which submits the array and the merge with `--dependency=afterany` on it
+//! (the merge reports any point that did not finish, so it must run whatever happened).
+//! Every path is absolute, so the scripts run from any working directory of any node that sees
+//! the same file system. Slurm's default `MaxArraySize` is 1001: larger sweeps need it raised
+//! in `slurm.conf`.
+
+use std::path::Path;
+
+/// What the scripts run.
+#[derive(Clone, Debug)]
+pub struct SlurmJob<'a> {
+    pub name: &'a str,
+    /// The rtsim binary, the experiment file and the results directory (all absolute).
+    pub binary: &'a Path,
+    pub experiment: &'a Path,
+    pub out: &'a Path,
+    pub points: usize,
+    pub quick: bool,
+}
+
+/// Quote for a POSIX shell.
+pub fn shell_quote(s: &str) -> String {
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "/._-+=:@%".contains(c))
+    {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+/// `(file name, contents)` of the three scripts.
+pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
+    let q = |p: &Path| shell_quote(&p.display().to_string());
+    let logs = job.out.join("slurm");
+    let quick = if job.quick { " --quick" } else { "" };
+    let base = format!(
+        "{} sweep {} --out {}",
+        q(job.binary),
+        q(job.experiment),
+        q(job.out)
+    );
+    let points = format!(
+        "#!/bin/bash\n\
+         # One task per point of experiment `{name}` ({n} points), written by `rtsim sweep --emit-slurm`.\n\
+         #SBATCH --job-name=rtsim-{name}\n\
+         #SBATCH --array=0-{last}\n\
+         #SBATCH --ntasks=1\n\
+         #SBATCH --cpus-per-task=1\n\
+         #SBATCH --output={logs}/point-%a.log\n\
+         set -euo pipefail\n\
+         exec {base} --point \"$SLURM_ARRAY_TASK_ID\"{quick}\n",
+        name = job.name,
+        n = job.points,
+        last = job.points.saturating_sub(1),
+        logs = q(&logs),
+    );
+    let merge = format!(
+        "#!/bin/bash\n\
+         # Merges the points of experiment `{name}` once the array job has ended.\n\
+         #SBATCH --job-name=rtsim-{name}-merge\n\
+         #SBATCH --ntasks=1\n\
+         #SBATCH --cpus-per-task=1\n\
+         #SBATCH --output={logs}/merge.log\n\
+         set -euo pipefail\n\
+         exec {base} --merge{quick}\n",
+        name = job.name,
+        logs = q(&logs),
+    );
+    let submit = format!(
+        "#!/bin/sh\n\
+         # Submit the points of experiment `{name}`, then the merge after all of them.\n\
+         set -eu\n\
+         mkdir -p {logs}\n\
+         cd \"$(dirname \"$0\")\"\n\
+         jid=$(sbatch --parsable points.sbatch)\n\
+         jid=${{jid%%;*}}\n\
+         mid=$(sbatch --parsable --dependency=afterany:\"$jid\" merge.sbatch)\n\
+         echo \"points: job $jid; merge: job ${{mid%%;*}}\"\n",
+        name = job.name,
+        logs = q(&logs),
+    );
+    vec![
+        ("points.sbatch", points),
+        ("merge.sbatch", merge),
+        ("submit.sh", submit),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scripts_run_each_point_and_merge_after() {
+        let job = SlurmJob {
+            name: "fig7",
+            binary: Path::new("/opt/rtsim"),
+            experiment: Path::new("/home/u/exp dir/fig7.toml"),
+            out: Path::new("/scratch/results/fig7"),
+            points: 16,
+            quick: true,
+        };
+        let s = scripts(&job);
+        assert_eq!(s[0].0, "points.sbatch");
+        assert!(s[0].1.contains("#SBATCH --array=0-15\n"));
+        assert!(s[0].1.contains(
+            "exec /opt/rtsim sweep '/home/u/exp dir/fig7.toml' --out /scratch/results/fig7 \
+             --point \"$SLURM_ARRAY_TASK_ID\" --quick\n"
+        ));
+        assert!(s[1].1.contains("--merge --quick\n"));
+        assert!(
+            s[2].1
+                .contains("--dependency=afterany:\"$jid\" merge.sbatch")
+        );
+        assert_eq!(shell_quote("it's"), "'it'\\''s'");
+    }
+}

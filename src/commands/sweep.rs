@@ -1,0 +1,345 @@
+//! `rtsim sweep EXPERIMENT.toml`: run every point of an experiment (each one ordinary rtsim
+//! run in its own directory), resumably, on all cores or as a Slurm array job, and merge the
+//! results into one table. The experiment format, the directory layout and the merge are in
+//! `rtsim-sweep` (`docs/EXPERIMENTS.md`).
+
+use crate::progress;
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use rtsim_sweep::results::{collect, to_csv, to_jsonl};
+use rtsim_sweep::slurm::{SlurmJob, scripts};
+use rtsim_sweep::store::{CONFIG, PointRecord, Status, Store};
+use rtsim_sweep::{Experiment, Point};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+#[derive(Debug, Args, Clone)]
+pub struct SweepArgs {
+    /// The experiment file (see docs/EXPERIMENTS.md).
+    pub experiment: PathBuf,
+    /// Results directory. Default `results/NAME` (`results/NAME-quick` with --quick).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Points run at once. Default: the number of cores.
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
+    /// Apply the experiment's [quick] overrides (minutes instead of hours).
+    #[arg(long)]
+    pub quick: bool,
+    /// Run only point K (what each task of a batch array runs), without merging.
+    #[arg(long, value_name = "K", conflicts_with_all = ["merge", "emit_slurm"])]
+    pub point: Option<usize>,
+    /// Only merge the finished points into the table.
+    #[arg(long, conflicts_with = "emit_slurm")]
+    pub merge: bool,
+    /// Write Slurm scripts (an array job and a dependent merge job) into DIR instead of running.
+    #[arg(long, value_name = "DIR")]
+    pub emit_slurm: Option<PathBuf>,
+    /// List the points and their parameters, then exit.
+    #[arg(long)]
+    pub list: bool,
+}
+
+/// `summary.json`: what the merged table holds.
+#[derive(Debug, Serialize)]
+struct Summary<'a> {
+    experiment: &'a str,
+    command: &'a str,
+    quick: bool,
+    points: usize,
+    finished: usize,
+    /// Points not finished (never run, killed or failed): rerun the sweep to complete them.
+    missing: &'a [usize],
+}
+
+pub fn run(args: SweepArgs) -> Result<()> {
+    let e = Experiment::load(&args.experiment)?;
+    let points = e.points(args.quick)?;
+    let out = args.out.clone().unwrap_or_else(|| {
+        let suffix = if args.quick { "-quick" } else { "" };
+        PathBuf::from("results").join(format!("{}{suffix}", e.name))
+    });
+    let store = Store::new(&out);
+    if args.list {
+        for p in &points {
+            println!(
+                "p{:05}  {}",
+                p.index,
+                serde_json::Value::Object(p.params_json())
+            );
+        }
+        return Ok(());
+    }
+    validate_points(&e, &points)?;
+    if let Some(dir) = &args.emit_slurm {
+        return emit_slurm(&args, &e, &out, points.len(), dir);
+    }
+    if args.merge {
+        let missing = merge(&e, &points, args.quick, &store)?;
+        return unfinished(&missing);
+    }
+    let todo: Vec<&Point> = match args.point {
+        Some(k) => {
+            let p = points.get(k).with_context(|| {
+                format!(
+                    "--point {k}: the experiment has points 0..={}",
+                    points.len() - 1
+                )
+            })?;
+            vec![p]
+        }
+        None => {
+            store.clean_stale()?;
+            points.iter().collect()
+        }
+    };
+    let mut pending = Vec::new();
+    for p in todo {
+        if store.status(&PointRecord::of(&e, p, args.quick))? == Status::Todo {
+            pending.push(p);
+        }
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let jobs = args
+        .jobs
+        .unwrap_or(cores)
+        .clamp(1, 256)
+        .min(pending.len().max(1));
+    eprintln!(
+        "rtsim sweep: {} `{}`, {} points, {} to run ({} at once), results in {}",
+        e.name,
+        e.command.name(),
+        points.len(),
+        pending.len(),
+        jobs,
+        out.display()
+    );
+    let failures = run_points(&e, &pending, args.quick, &store, jobs)?;
+    let missing = match args.point {
+        None => merge(&e, &points, args.quick, &store)?,
+        Some(_) => Vec::new(),
+    };
+    if !failures.is_empty() {
+        let list: Vec<String> = failures
+            .iter()
+            .map(|(i, dir)| format!("p{i:05} ({})", dir.join("stderr.txt").display()))
+            .collect();
+        bail!(
+            "{} point(s) failed: {}; rerun the sweep to retry them",
+            failures.len(),
+            list.join(", ")
+        );
+    }
+    unfinished(&missing)
+}
+
+/// An error naming the points not finished, if any.
+fn unfinished(missing: &[usize]) -> Result<()> {
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let shown: Vec<String> = missing
+        .iter()
+        .take(20)
+        .map(|i| format!("p{i:05}"))
+        .collect();
+    bail!(
+        "{} point(s) not finished ({}{}); run the sweep again to complete them",
+        missing.len(),
+        shown.join(", "),
+        if missing.len() > 20 { ", …" } else { "" }
+    )
+}
+
+/// Check every point's settings before any runs (a typo in a grid value fails now, not hours
+/// later).
+fn validate_points(e: &Experiment, points: &[Point]) -> Result<()> {
+    if !e.command.reads_run_config() {
+        return Ok(());
+    }
+    for p in points {
+        let origin = format!("{} point {}", e.path.display(), p.index);
+        let inputs = rtsim_run::Inputs {
+            config_text: Some((origin.clone(), p.config_toml.clone())),
+            ..rtsim_run::Inputs::default()
+        };
+        rtsim_run::layers(&inputs, None)
+            .and_then(|l| l.build::<rtsim_run::RunConfig>())
+            .with_context(|| origin.clone())?;
+    }
+    Ok(())
+}
+
+/// Run `pending` points, `jobs` at a time; returns the failed ones.
+fn run_points(
+    e: &Experiment,
+    pending: &[&Point],
+    quick: bool,
+    store: &Store,
+    jobs: usize,
+) -> Result<Vec<(usize, PathBuf)>> {
+    if pending.is_empty() {
+        return Ok(Vec::new());
+    }
+    let exe = std::env::current_exe().context("locating the rtsim binary")?;
+    let next = AtomicUsize::new(0);
+    let failures = Mutex::new(Vec::new());
+    let errors = Mutex::new(Vec::new());
+    let bar = progress::bar(pending.len() as u64, "sweep");
+    std::thread::scope(|s| {
+        for _ in 0..jobs {
+            s.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(p) = pending.get(k) else { break };
+                    match run_point(&exe, e, p, quick, store, jobs > 1) {
+                        Ok(None) => {}
+                        Ok(Some(dir)) => failures.lock().expect("no panics").push((p.index, dir)),
+                        Err(err) => errors.lock().expect("no panics").push(err),
+                    }
+                    bar.inc(1);
+                }
+            });
+        }
+    });
+    bar.finish_and_clear();
+    if let Some(err) = errors.into_inner().expect("no panics").into_iter().next() {
+        return Err(err);
+    }
+    let mut f = failures.into_inner().expect("no panics");
+    f.sort();
+    Ok(f)
+}
+
+/// Run one point in its staging directory; `Some(dir)` if its command failed.
+fn run_point(
+    exe: &Path,
+    e: &Experiment,
+    p: &Point,
+    quick: bool,
+    store: &Store,
+    one_thread: bool,
+) -> Result<Option<PathBuf>> {
+    let rec = PointRecord::of(e, p, quick);
+    let dir = store.begin(&rec)?;
+    let mut cmd = Command::new(exe);
+    cmd.arg(e.command.name())
+        .args(&e.args)
+        .arg("--config")
+        .arg(dir.join(CONFIG));
+    if e.command.has_out_dir() {
+        cmd.arg("--out").arg(&dir);
+    }
+    if one_thread && e.command.reads_run_config() {
+        // Points run side by side: one thread each (results never depend on it).
+        cmd.args(["--threads", "1"]);
+    }
+    let stdout = std::fs::File::create(dir.join("stdout.txt"))
+        .with_context(|| format!("creating {}", dir.join("stdout.txt").display()))?;
+    cmd.stdin(Stdio::null())
+        .stdout(stdout)
+        .stderr(Stdio::piped());
+    die_with_parent(&mut cmd);
+    let output = cmd
+        .output()
+        .with_context(|| format!("running point {} ({})", p.index, exe.display()))?;
+    if output.status.success() {
+        store.finish(&rec)?;
+        Ok(None)
+    } else {
+        Ok(Some(store.fail(p.index, &output.stderr)?))
+    }
+}
+
+/// A point's process must not outlive a killed sweep (it would keep writing into a staging
+/// directory the next run removes): on Linux it is killed when its parent dies.
+fn die_with_parent(cmd: &mut Command) {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: prctl is async-signal-safe; the closure touches no memory of the parent.
+        unsafe {
+            cmd.pre_exec(|| {
+                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = cmd;
+}
+
+/// Merge the finished points into `results.csv`, `results.jsonl` and `summary.json`; returns
+/// the points not finished.
+fn merge(e: &Experiment, points: &[Point], quick: bool, store: &Store) -> Result<Vec<usize>> {
+    let m = collect(e, points, quick, store)?;
+    let root = store.root();
+    std::fs::create_dir_all(root).with_context(|| format!("creating {}", root.display()))?;
+    let summary = Summary {
+        experiment: &e.name,
+        command: e.command.name(),
+        quick,
+        points: points.len(),
+        finished: m.rows.len(),
+        missing: &m.missing,
+    };
+    for (name, text) in [
+        ("results.csv", to_csv(&m)),
+        ("results.jsonl", to_jsonl(&m)),
+        (
+            "summary.json",
+            serde_json::to_string_pretty(&summary)? + "\n",
+        ),
+    ] {
+        let path = root.join(name);
+        rtsim_core::output::write_atomic(&path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    println!(
+        "merged {} of {} points into {}",
+        m.rows.len(),
+        points.len(),
+        root.join("results.csv").display()
+    );
+    Ok(m.missing)
+}
+
+fn emit_slurm(args: &SweepArgs, e: &Experiment, out: &Path, n: usize, dir: &Path) -> Result<()> {
+    let abs = |p: &Path| -> Result<PathBuf> {
+        std::path::absolute(p).with_context(|| format!("resolving {}", p.display()))
+    };
+    let binary = std::env::current_exe().context("locating the rtsim binary")?;
+    let (experiment, out) = (abs(&args.experiment)?, abs(out)?);
+    let job = SlurmJob {
+        name: &e.name,
+        binary: &binary,
+        experiment: &experiment,
+        out: &out,
+        points: n,
+        quick: args.quick,
+    };
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for (name, text) in scripts(&job) {
+        let path = dir.join(name);
+        rtsim_core::output::write_atomic(&path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755))
+                .with_context(|| format!("making {} executable", path.display()))?;
+        }
+    }
+    println!(
+        "wrote {}/{{points.sbatch,merge.sbatch,submit.sh}}: {n} array tasks and a merge; \
+         run {}/submit.sh on the cluster",
+        dir.display(),
+        dir.display()
+    );
+    Ok(())
+}
