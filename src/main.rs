@@ -16,6 +16,10 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     install_panic_hook();
+    // Ctrl-C, SIGTERM and SIGHUP remove staged outputs before the process ends.
+    if let Err(e) = rtsim_core::output::install_interrupt_cleanup() {
+        eprintln!("warning: cannot install the interrupt handler: {e}");
+    }
     let cli = match cli::Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -47,8 +51,22 @@ fn one_line(e: &anyhow::Error) -> String {
             out.push_str(&s);
         }
     }
-    out.replace('\n', " ")
+    // Whatever input a message quotes, the terminal gets one line and no control characters.
+    let mut line = rtsim_core::text::escape_controls(&out.replace('\n', " "));
+    if line.len() > MAX_ERROR_BYTES {
+        let mut cut = MAX_ERROR_BYTES;
+        while !line.is_char_boundary(cut) {
+            cut -= 1;
+        }
+        line.truncate(cut);
+        line.push_str("… (message cut)");
+    }
+    line
 }
+
+/// Longest error line printed (assumed: 4 KiB; messages quote input through
+/// `rtsim_core::text::echo`, so only a bug could produce more).
+const MAX_ERROR_BYTES: usize = 4096;
 
 /// A panic is a bug in rtsim, never the user's fault: say so on one line.
 fn install_panic_hook() {

@@ -41,6 +41,6 @@ pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
 pub fn resolve(args: &SceneArgs, flags: &[Flag]) -> Result<Resolved> {
     let inputs = inputs(args, flags)?;
     Ok(rtsim_run::resolve(&inputs, &mut |line| {
-        eprintln!("note: {line}")
+        eprintln!("note: {}", rtsim_core::text::escape_controls(line))
     })?)
 }

@@ -17,7 +17,7 @@ use rtsim_cache::{
     CacheConfig, CacheStats, FunctionalHierarchy, Hierarchy, MemoryCounts, Parent, Topology,
 };
 use rtsim_config::{ConfigError, Layers};
-use rtsim_core::output::write_atomic;
+use rtsim_core::output::{OutputPlan, OutputSet};
 use rtsim_dram::config::UserLayers;
 use rtsim_dram::{Dram, DramConfig, Report, Requester};
 use serde::Serialize;
@@ -65,6 +65,11 @@ struct RunInfo {
     refusals: u64,
     /// Timed: the cycle the last access's data was ready.
     end_cycle: u64,
+}
+
+/// `timing.json`: host-dependent figures, kept out of the deterministic `cache_stats.json`.
+#[derive(Debug, Serialize)]
+struct CacheTiming {
     wall_seconds: f64,
     accesses_per_second: f64,
 }
@@ -175,6 +180,18 @@ pub fn run(args: CacheArgs) -> Result<()> {
     };
     let (config, dram_sets) = resolve(&args)?;
     let topology = Topology::from_config(&config)?;
+    // Pre-flight: the outputs are checked and staged before the replay.
+    let files = OutputFiles::of(&args.out);
+    let mut plan = OutputPlan::new();
+    plan.dir(&args.out, "--out");
+    for f in [&files.stats, &files.config, &files.timing] {
+        plan.file(f);
+    }
+    plan.input("--trace", &args.trace);
+    if let Some(c) = &args.config {
+        plan.input("--config", c);
+    }
+    let outputs = plan.prepare()?;
     let bar = crate::progress::bar(0, "accesses");
     let start = Instant::now();
     let mut dram_out = None;
@@ -239,6 +256,12 @@ pub fn run(args: CacheArgs) -> Result<()> {
     };
     bar.finish_and_clear();
     let wall = start.elapsed().as_secs_f64();
+    if summary.accesses == 0 {
+        bail!(
+            "{}: the trace has no accesses (only blank or comment lines): nothing to replay",
+            args.trace.display()
+        );
+    }
 
     let caches: Vec<CacheEntry> = topology
         .nodes()
@@ -354,8 +377,6 @@ pub fn run(args: CacheArgs) -> Result<()> {
             stall_cycles: summary.stall_cycles,
             refusals: summary.refusals,
             end_cycle: summary.end_cycle,
-            wall_seconds: wall,
-            accesses_per_second: rate,
         },
         config: &config,
         levels,
@@ -364,18 +385,49 @@ pub fn run(args: CacheArgs) -> Result<()> {
         dram: dram_out.as_ref().map(|d| &d.0),
         dram_config: dram_out.as_ref().map(|d| &d.1),
     };
-    write_outputs(&args.out, &file, dram_out.as_ref().map(|d| &d.1))
+    let timing = CacheTiming {
+        wall_seconds: wall,
+        accesses_per_second: rate,
+    };
+    write_outputs(
+        outputs,
+        &files,
+        &file,
+        &timing,
+        dram_out.as_ref().map(|d| &d.1),
+    )
 }
 
 fn replay_error(e: ReplayError) -> anyhow::Error {
     anyhow::Error::new(e)
 }
 
-fn write_outputs(dir: &Path, file: &StatsFile<'_>, dram: Option<&DramConfig>) -> Result<()> {
+/// The files `rtsim cache` writes into `--out`.
+struct OutputFiles {
+    stats: PathBuf,
+    config: PathBuf,
+    timing: PathBuf,
+}
+
+impl OutputFiles {
+    fn of(dir: &Path) -> Self {
+        OutputFiles {
+            stats: dir.join("cache_stats.json"),
+            config: dir.join("cache_config.resolved.toml"),
+            timing: dir.join("timing.json"),
+        }
+    }
+}
+
+fn write_outputs(
+    mut set: OutputSet,
+    files: &OutputFiles,
+    file: &StatsFile<'_>,
+    timing: &CacheTiming,
+    dram: Option<&DramConfig>,
+) -> Result<()> {
     let json = serde_json::to_string_pretty(file).context("serialising cache_stats.json")?;
-    let stats = dir.join("cache_stats.json");
-    write_atomic(&stats, json.as_bytes())
-        .with_context(|| format!("writing {}", stats.display()))?;
+    set.write(&files.stats, json.as_bytes())?;
     let mut toml = format!(
         "# rtsim resolved cache configuration: `rtsim cache --config THIS_FILE` repeats the run.\n{}",
         rtsim_config::to_toml_string(file.config)?
@@ -389,9 +441,12 @@ fn write_outputs(dir: &Path, file: &StatsFile<'_>, dram: Option<&DramConfig>) ->
         toml.push('\n');
         toml.push_str(&rtsim_config::to_toml_string(&t)?);
     }
-    let resolved = dir.join("cache_config.resolved.toml");
-    write_atomic(&resolved, toml.as_bytes())
-        .with_context(|| format!("writing {}", resolved.display()))?;
-    println!("  wrote {}", stats.display());
+    set.write(&files.config, toml.as_bytes())?;
+    set.write(
+        &files.timing,
+        serde_json::to_string_pretty(timing)?.as_bytes(),
+    )?;
+    set.commit()?;
+    println!("  wrote {}", files.stats.display());
     Ok(())
 }

@@ -7,7 +7,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use rtsim_config::ConfigError;
-use rtsim_core::output::write_atomic;
+use rtsim_core::output::{OutputPlan, OutputSet};
 use rtsim_dram::config::{PRESETS, UserLayers};
 use rtsim_dram::trace::{Pattern, Synthetic, TraceError, TraceFormat, TraceReader};
 use rtsim_dram::{Dram, DramConfig, DriveOptions, DriveSummary, Report, Requester, drive};
@@ -85,6 +85,11 @@ struct RunInfo {
     /// Requester cycle of the last completion.
     end_cycle: u64,
     max_outstanding_reads: Option<u32>,
+}
+
+/// `timing.json`: host-dependent figures, kept out of the deterministic `dram_stats.json`.
+#[derive(Debug, Serialize)]
+struct DramTiming {
     wall_seconds: f64,
     requests_per_second: f64,
 }
@@ -148,6 +153,9 @@ pub fn run(args: DramArgs) -> Result<()> {
             ConfigError::range("--interval", args.interval, format!("0..={max_gap}")).into(),
         );
     }
+    if args.synthetic.is_some() && args.requests == 0 {
+        return Err(ConfigError::range("--requests", 0, format!("1..={}", u64::MAX)).into());
+    }
     let mut config = rtsim_dram::config::resolve(&UserLayers {
         preset: args.preset.as_deref(),
         file: args.config.as_deref(),
@@ -171,6 +179,20 @@ pub fn run(args: DramArgs) -> Result<()> {
     let opts = DriveOptions {
         max_outstanding_reads: max_outstanding,
     };
+    // Pre-flight: the outputs are checked and staged before the run.
+    let mut plan = OutputPlan::new();
+    plan.dir(&args.out, "--out");
+    let files = OutputFiles::of(&args.out);
+    for f in [&files.stats, &files.config, &files.timing] {
+        plan.file(f);
+    }
+    if let Some(t) = &args.trace {
+        plan.input("--trace", t);
+    }
+    if let Some(c) = &args.config {
+        plan.input("--config", c);
+    }
+    let outputs = plan.prepare()?;
     let start = Instant::now();
     let (summary, info_source, pattern) = if let Some(path) = &args.trace {
         (
@@ -203,6 +225,12 @@ pub fn run(args: DramArgs) -> Result<()> {
         )
     };
     let wall = start.elapsed().as_secs_f64();
+    if summary.requests == 0 {
+        bail!(
+            "{}: the trace has no requests (only blank or comment lines): nothing to simulate",
+            args.trace.as_deref().unwrap_or(Path::new("-")).display()
+        );
+    }
     let report = dram.report(summary.end_cycle);
     let violations = dram.violations();
 
@@ -236,10 +264,12 @@ pub fn run(args: DramArgs) -> Result<()> {
         stall_cycles: summary.stall_cycles,
         end_cycle: summary.end_cycle,
         max_outstanding_reads: max_outstanding,
+    };
+    let timing = DramTiming {
         wall_seconds: wall,
         requests_per_second: rate,
     };
-    write_outputs(&args.out, &config, &report, info)?;
+    write_outputs(outputs, &files, &config, &report, info, &timing)?;
     if !violations.is_empty() {
         bail!(
             "checking mode found {} timing violation(s), first: {}",
@@ -278,23 +308,48 @@ fn run_trace(
     Ok(s?)
 }
 
-fn write_outputs(dir: &Path, config: &DramConfig, report: &Report, run: RunInfo) -> Result<()> {
+/// The files `rtsim dram` writes into `--out`.
+struct OutputFiles {
+    stats: PathBuf,
+    config: PathBuf,
+    timing: PathBuf,
+}
+
+impl OutputFiles {
+    fn of(dir: &Path) -> Self {
+        OutputFiles {
+            stats: dir.join("dram_stats.json"),
+            config: dir.join("dram_config.resolved.toml"),
+            timing: dir.join("timing.json"),
+        }
+    }
+}
+
+fn write_outputs(
+    mut set: OutputSet,
+    files: &OutputFiles,
+    config: &DramConfig,
+    report: &Report,
+    run: RunInfo,
+    timing: &DramTiming,
+) -> Result<()> {
     let file = StatsFile {
         run,
         config,
         report,
     };
     let json = serde_json::to_string_pretty(&file).context("serialising dram_stats.json")?;
-    let stats = dir.join("dram_stats.json");
-    write_atomic(&stats, json.as_bytes())
-        .with_context(|| format!("writing {}", stats.display()))?;
+    set.write(&files.stats, json.as_bytes())?;
     let toml = format!(
         "# rtsim resolved DRAM configuration: `rtsim dram --config THIS_FILE` repeats the run.\n{}",
         rtsim_config::to_toml_string(config)?
     );
-    let resolved = dir.join("dram_config.resolved.toml");
-    write_atomic(&resolved, toml.as_bytes())
-        .with_context(|| format!("writing {}", resolved.display()))?;
-    println!("  wrote {}", stats.display());
+    set.write(&files.config, toml.as_bytes())?;
+    set.write(
+        &files.timing,
+        serde_json::to_string_pretty(timing)?.as_bytes(),
+    )?;
+    set.commit()?;
+    println!("  wrote {}", files.stats.display());
     Ok(())
 }

@@ -155,10 +155,9 @@ pub fn encode_hits(hits: &[Hit], out: &mut Vec<u8>) {
     }
 }
 
-/// Write `rays.bin` atomically.
-pub fn write_rays(path: &Path, rays: &[Ray]) -> io::Result<()> {
-    let mut f = AtomicFile::create(path)?;
-    f.write_all(&(rays.len() as u64).to_le_bytes())?;
+/// Encode `rays` in the `rays.bin` layout into `w`.
+pub fn encode_rays<W: Write>(mut w: W, rays: &[Ray]) -> io::Result<()> {
+    w.write_all(&(rays.len() as u64).to_le_bytes())?;
     let mut buf = Vec::with_capacity(rays.len().min(1 << 16) * RAY_BYTES as usize);
     for chunk in rays.chunks(1 << 16) {
         buf.clear();
@@ -176,8 +175,15 @@ pub fn write_rays(path: &Path, rays: &[Ray]) -> io::Result<()> {
                 buf.extend_from_slice(&v.to_le_bytes());
             }
         }
-        f.write_all(&buf)?;
+        w.write_all(&buf)?;
     }
+    Ok(())
+}
+
+/// Write `rays.bin` atomically.
+pub fn write_rays(path: &Path, rays: &[Ray]) -> io::Result<()> {
+    let mut f = AtomicFile::create(path)?;
+    encode_rays(&mut f, rays)?;
     f.commit()
 }
 

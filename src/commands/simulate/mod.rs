@@ -12,10 +12,10 @@ mod functional;
 use crate::cli::SceneArgs;
 use crate::run_config::Flag;
 use crate::session::{self, Session};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
-use rtsim_core::output::write_atomic;
-use rtsim_trace::film::{heatmap_rgb8, write_png};
+use crate::commands::FrameOutputs;
+use rtsim_trace::film::heatmap_rgb8;
 use rtsim_trace::{PixelResult, ToneMap, WorkloadKind};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -130,7 +130,10 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             .as_ref()
             .map(|o| Value::String(o.display().to_string())),
     );
-    let session = session::open(&args.scene, &flags, false)?;
+    let resolved = crate::run_config::resolve(&args.scene, &flags)?;
+    // Pre-flight: every output is checked and staged before the (possibly hours-long) run.
+    let outputs = crate::commands::FrameOutputs::prepare(&args.scene, &resolved)?;
+    let session = session::build(resolved, false)?;
     let preset = session.resolved.config.arch.preset.clone();
     let out = match preset.as_str() {
         "functional" => functional::run(&session)?,
@@ -138,7 +141,8 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             "arch.preset = {other} has no simulator in this build (known: functional)"
         ),
     };
-    let top = write_outputs(&session, &out)?;
+    let png = outputs.png().to_path_buf();
+    let top = write_outputs(&session, &out, outputs)?;
     for line in &out.summary {
         println!("{line}");
     }
@@ -146,24 +150,14 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         "heat map         {} per pixel, ramp top (99th percentile) {top}",
         out.heat_label
     );
-    println!(
-        "wrote            {}",
-        session
-            .resolved
-            .config
-            .output
-            .dir
-            .join("render.png")
-            .display()
-    );
+    println!("wrote            {}", png.display());
     Ok(())
 }
 
-/// Write the image, heat map, stats, timing and resolved config, each atomically; returns the
-/// heat map's top value.
-fn write_outputs(s: &Session, out: &SimOutput) -> Result<u64> {
+/// Write the image, heat map, stats, timing and resolved config as one set (all or none);
+/// returns the heat map's top value.
+fn write_outputs(s: &Session, out: &SimOutput, files: FrameOutputs) -> Result<u64> {
     let cfg = &s.resolved.config;
-    let dir = &cfg.output.dir;
     let params = rtsim_run::workload_params(&s.resolved);
     let (w, h) = (params.width, params.height);
     let frame = rtsim_trace::Frame {
@@ -177,25 +171,17 @@ fn write_outputs(s: &Session, out: &SimOutput) -> Result<u64> {
         (None, WorkloadKind::Ao) => ToneMap::Linear { exposure: 1.0 },
         (None, _) => ToneMap::Auto,
     };
-    let png = dir.join("render.png");
-    write_png(&png, w, h, &frame.to_srgb8(tone))
-        .with_context(|| format!("writing {}", png.display()))?;
+    let image = frame.to_srgb8(tone);
+    crate::commands::warn_if_black(&image, params.kind, &s.resolved);
     let (rgb, top) = heatmap_rgb8(&out.heat);
-    if cfg.output.heatmap {
-        let p = dir.join("heatmap.png");
-        write_png(&p, w, h, &rgb).with_context(|| format!("writing {}", p.display()))?;
-    }
     let json = |v: serde_json::Value| serde_json::to_string_pretty(&v);
-    let stats_path = dir.join("stats.json");
-    write_atomic(&stats_path, json(out.stats.to_json()?)?.as_bytes())
-        .with_context(|| format!("writing {}", stats_path.display()))?;
-    write_atomic(
-        dir.join("timing.json"),
-        serde_json::to_string_pretty(&out.timing)?.as_bytes(),
-    )?;
-    write_atomic(
-        dir.join("config.resolved.toml"),
-        rtsim_run::resolved_toml(&s.resolved, "simulate")?.as_bytes(),
+    files.write(
+        (w, h),
+        &image,
+        &rgb,
+        &json(out.stats.to_json()?)?,
+        &serde_json::to_string_pretty(&out.timing)?,
+        &rtsim_run::resolved_toml(&s.resolved, "simulate")?,
     )?;
     Ok(top)
 }
