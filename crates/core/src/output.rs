@@ -160,7 +160,7 @@ impl OutputPlan {
                         dir,
                         format!(
                             "{what} must be a directory, but this is {}",
-                            describe(&m.file_type())
+                            crate::error::describe_file_type(&m.file_type())
                         ),
                     ));
                 }
@@ -486,33 +486,6 @@ fn classify(path: &Path) -> Result<Mode, OutputError> {
         path,
         format!("more than {MAX_LINK_HOPS} symbolic links to follow (a loop?)"),
     ))
-}
-
-/// What a file is, for messages ("a regular file", "a FIFO" …).
-fn describe(ft: &fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if ft.is_char_device() {
-            return "a character device";
-        }
-        if ft.is_block_device() {
-            return "a block device";
-        }
-        if ft.is_fifo() {
-            return "a FIFO";
-        }
-        if ft.is_socket() {
-            return "a socket";
-        }
-    }
-    if ft.is_dir() {
-        "a directory"
-    } else if ft.is_symlink() {
-        "a symbolic link"
-    } else {
-        "a regular file"
-    }
 }
 
 #[cfg(unix)]

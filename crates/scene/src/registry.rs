@@ -171,17 +171,23 @@ pub fn load_scene(req: &SceneRequest<'_>) -> Result<Scene, SceneError> {
             d.build(name, &base)
         }
         SceneSource::File(path) => {
-            if !path.is_file() {
+            // Checked before opening: a FIFO would wait for a writer, a directory has no text.
+            let meta =
+                std::fs::metadata(&path).map_err(|e| rtsim_core::FileError::io(&path, e))?;
+            if !meta.is_file() {
+                let kind = rtsim_core::error::describe_file_type(&meta.file_type());
                 return Err(rtsim_core::FileError::io(
                     &path,
-                    std::io::Error::new(std::io::ErrorKind::NotFound, "no such scene file"),
+                    std::io::Error::new(
+                        std::io::ErrorKind::InvalidInput,
+                        format!("{kind}, not a scene file"),
+                    ),
                 )
                 .into());
             }
             let name = scene_name_of(&path);
             if is_descriptor_path(&path) {
-                let text = std::fs::read_to_string(&path)
-                    .map_err(|source| rtsim_core::FileError::io(&path, source))?;
+                let text = rtsim_core::text::read_text_file(&path)?;
                 let d = Descriptor::parse(&text, &path)?;
                 let base = match d.paths {
                     PathBase::Descriptor => {
@@ -253,7 +259,10 @@ fn scene_name_of(path: &Path) -> String {
 fn load_bare_mesh(path: &Path, name: &str) -> Result<Scene, SceneError> {
     let m = mesh::load_mesh(path, &Affine::IDENTITY)?;
     if m.triangles.is_empty() {
-        return Err(SceneError::Empty(name.to_string()));
+        return Err(SceneError::Empty {
+            name: name.to_string(),
+            why: m.report.why_empty(),
+        });
     }
     let mut bounds = Aabb::EMPTY;
     for t in &m.triangles {
