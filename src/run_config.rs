@@ -29,7 +29,11 @@ pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
         i.flag("seed", seed);
     }
     if let Some(t) = args.threads {
-        i.flag("threads", t.min(i64::MAX as usize) as i64);
+        let max = rtsim_run::MAX_THREADS;
+        if t > max {
+            return Err(ConfigError::range("--threads", t, format!("0..={max} (0 = all cores)")).into());
+        }
+        i.flag("threads", t as i64);
     }
     for (k, v) in flags {
         i.flag(k, v.clone());

@@ -35,23 +35,23 @@ pub struct DramArgs {
     #[arg(long, value_name = "PATTERN")]
     pub synthetic: Option<String>,
     /// Synthetic requests to generate.
-    #[arg(long, default_value_t = 1_000_000)]
+    #[arg(long, default_value_t = 1_000_000, value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub requests: u64,
     /// Fraction of synthetic requests that are reads (0..=1).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub read_ratio: f64,
     /// Stride in bytes of `--synthetic strided` (default: one row of one channel).
-    #[arg(long, value_name = "BYTES")]
+    #[arg(long, value_name = "BYTES", value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub stride: Option<u64>,
     /// Requester cycles between synthetic requests (0: as fast as the queues accept them).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub interval: u64,
     /// Seed of the synthetic generator.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub seed: u64,
     /// USIMM traces: at most this many reads outstanding (default
     /// `trace.usimm_max_outstanding_reads`).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub max_outstanding: Option<u32>,
     /// TOML file merged over the preset (a DRAM tree, or a file with a [dram] table).
     #[arg(long, value_name = "FILE")]

@@ -201,9 +201,13 @@ impl Layers {
                 path: path.display().to_string(),
                 source,
             },
-            other => ConfigError::Parse {
-                origin: "config file".into(),
-                message: other.to_string(),
+            rtsim_core::FileError::Parse {
+                path,
+                line,
+                message,
+            } => ConfigError::Parse {
+                origin: format!("{}:{line}", path.display()),
+                message,
             },
         })?;
         self.merge_str(&text, &path.display().to_string())

@@ -464,6 +464,8 @@ impl Validate for DramConfig {
         if self.preset.trim().is_empty() {
             return Err(ConfigError::key("preset", "must not be empty"));
         }
+        // The memory clock first: a bad one must not read as a bad requester clock.
+        check_mhz("timing.clock_mhz", self.timing.clock_mhz)?;
         check_mhz("trace.requester_clock_mhz", self.trace.requester_clock_mhz)?;
         let ratio = self.trace.requester_clock_mhz / self.timing.clock_mhz;
         if !(1.0 / 1024.0..=1024.0).contains(&ratio) {

@@ -146,7 +146,8 @@ pub fn find_scene(name: &str) -> Result<SceneSource, SceneError> {
     }
     let path = Path::new(name);
     let looks_like_file = is_descriptor_path(path) || mesh_format(path).is_some();
-    if path.is_file() || looks_like_file {
+    // Anything that exists is taken as a file, so a directory or device is reported as one.
+    if path.is_file() || looks_like_file || path.exists() {
         // A missing file with a scene-file extension is reported as missing when loading.
         return Ok(SceneSource::File(path.to_path_buf()));
     }
@@ -180,7 +181,7 @@ pub fn load_scene(req: &SceneRequest<'_>) -> Result<Scene, SceneError> {
                     &path,
                     std::io::Error::new(
                         std::io::ErrorKind::InvalidInput,
-                        format!("{kind}, not a scene file"),
+                        format!("it is {kind}, not a scene file"),
                     ),
                 )
                 .into());

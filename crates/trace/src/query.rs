@@ -37,13 +37,22 @@ pub enum QueryError {
 }
 
 /// A streaming reader of `rays.bin`.
-#[derive(Debug)]
 pub struct RayReader {
     path: PathBuf,
-    reader: BufReader<File>,
+    reader: Box<dyn Read + Send>,
     count: u64,
     next: u64,
     buf: Vec<u8>,
+}
+
+impl std::fmt::Debug for RayReader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RayReader")
+            .field("path", &self.path)
+            .field("count", &self.count)
+            .field("next", &self.next)
+            .finish_non_exhaustive()
+    }
 }
 
 impl RayReader {
@@ -53,9 +62,38 @@ impl RayReader {
             path: path.to_path_buf(),
             source,
         };
+        // Checked before opening: a FIFO would wait for a writer and has no length.
+        let meta = std::fs::metadata(path).map_err(io_err)?;
+        if !meta.is_file() {
+            return Err(QueryError::Format {
+                path: path.into(),
+                message: format!(
+                    "is {}, not a rays file",
+                    rtsim_core::error::describe_file_type(&meta.file_type())
+                ),
+            });
+        }
         let file = File::open(path).map_err(io_err)?;
         let len = file.metadata().map_err(io_err)?.len();
-        let mut reader = BufReader::with_capacity(1 << 20, file);
+        Self::from_reader(Box::new(BufReader::with_capacity(1 << 20, file)), len, path)
+    }
+
+    /// Read rays from memory (`path` names them in errors).
+    pub fn from_bytes(bytes: Vec<u8>, path: &Path) -> Result<Self, QueryError> {
+        let len = bytes.len() as u64;
+        Self::from_reader(Box::new(io::Cursor::new(bytes)), len, path)
+    }
+
+    /// Read `len` bytes of `rays.bin` from `reader`, checking the header against `len`.
+    pub fn from_reader(
+        mut reader: Box<dyn Read + Send>,
+        len: u64,
+        path: &Path,
+    ) -> Result<Self, QueryError> {
+        let io_err = |source| QueryError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
         let mut head = [0u8; 8];
         if len < 8 {
             return Err(QueryError::Format {

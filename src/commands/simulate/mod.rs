@@ -31,18 +31,24 @@ pub struct SimulateArgs {
     /// Workload: primary, ao, diffuse, path, specular.
     #[arg(long)]
     pub workload: Option<String>,
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub width: Option<u32>,
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Samples per pixel.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub spp: Option<u32>,
     /// Simulate only pixels x0..x1 × y0..y1 of the image (`sim.window`).
-    #[arg(long, value_name = "X0,Y0,X1,Y1", value_delimiter = ',')]
+    #[arg(
+        long,
+        value_name = "X0,Y0,X1,Y1",
+        value_delimiter = ',',
+        value_parser = crate::cli::u32_arg,
+        allow_negative_numbers = true
+    )]
     pub window: Option<Vec<u32>>,
     /// Stop after this many core cycles (`sim.cycle_limit`).
-    #[arg(long, value_name = "CYCLES")]
+    #[arg(long, value_name = "CYCLES", value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub cycle_limit: Option<u64>,
     /// Timing engine: fast (default) or reference (cycle by cycle) (`sim.mode`).
     #[arg(long)]
@@ -118,11 +124,15 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             .as_ref()
             .map(|w| Value::Array(w.iter().map(|&v| Value::Integer(v.into())).collect())),
     );
-    s(
-        "sim.cycle_limit",
-        args.cycle_limit
-            .map(|c| Value::Integer(c.min(i64::MAX as u64) as i64)),
-    );
+    let cycle_limit = args
+        .cycle_limit
+        .map(|c| {
+            i64::try_from(c).map_err(|_| {
+                rtsim_config::ConfigError::range("--cycle-limit", c, format!("1..={}", i64::MAX))
+            })
+        })
+        .transpose()?;
+    s("sim.cycle_limit", cycle_limit.map(Value::Integer));
     s("sim.mode", args.mode.clone().map(Value::String));
     s(
         "output.dir",

@@ -53,7 +53,7 @@ pub fn open_decompressed(path: &Path) -> Result<Box<dyn BufRead + Send>, SceneEr
             path,
             std::io::Error::new(
                 std::io::ErrorKind::InvalidInput,
-                format!("{kind}, not a mesh file"),
+                format!("it is {kind}, not a mesh file"),
             ),
         ));
     }
@@ -156,7 +156,7 @@ impl<'p, R: BufRead> LineReader<'p, R> {
                         // The compressed stream's problem, not the text's.
                         rtsim_core::FileError::io(
                             self.path,
-                            std::io::Error::new(e.kind(), format!("{e}, after {done} lines")),
+                            std::io::Error::new(e.kind(), format!("{e}, after {done} line(s) of text")),
                         )
                         .into()
                     } else {
@@ -363,7 +363,7 @@ mod tests {
     fn directories_are_not_mesh_files() {
         let dir = tempfile::tempdir().unwrap();
         let e = open_decompressed(dir.path()).err().unwrap().to_string();
-        assert!(e.contains("a directory, not a mesh file"), "{e}");
+        assert!(e.contains("it is a directory, not a mesh file"), "{e}");
     }
 
     #[test]
