@@ -129,10 +129,7 @@ fn resolve(args: &CacheArgs) -> Result<(CacheConfig, Vec<String>)> {
     layers.merge_value(&CacheConfig::default(), "built-in defaults (TRaX)")?;
     let mut dram_sets = Vec::new();
     if let Some(path) = &args.config {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = rtsim_config::read_config_file(path)?;
         let origin = path.display().to_string();
         let mut table = rtsim_config::parse_toml(&text, &origin)?;
         if let Some(d) = table.remove("dram") {

@@ -196,20 +196,7 @@ impl Layers {
 
     /// Merge a TOML file (at most 16 MiB of UTF-8; a bad byte is reported by line and column).
     pub fn merge_file(&mut self, path: &Path) -> Result<(), ConfigError> {
-        let text = rtsim_core::text::read_text_file(path).map_err(|e| match e {
-            rtsim_core::FileError::Io { path, source } => ConfigError::Io {
-                path: path.display().to_string(),
-                source,
-            },
-            rtsim_core::FileError::Parse {
-                path,
-                line,
-                message,
-            } => ConfigError::Parse {
-                origin: format!("{}:{line}", path.display()),
-                message,
-            },
-        })?;
+        let text = read_config_file(path)?;
         self.merge_str(&text, &path.display().to_string())
     }
 
@@ -450,6 +437,25 @@ pub fn key_line(text: &str, key: &str) -> Option<u64> {
         }
     }
     found
+}
+
+/// The text of a configuration file: at most 16 MiB of UTF-8, a bad byte reported by line
+/// and column, errors naming the file.
+pub fn read_config_file(path: &Path) -> Result<String, ConfigError> {
+    rtsim_core::text::read_text_file(path).map_err(|e| match e {
+        rtsim_core::FileError::Io { path, source } => ConfigError::Io {
+            path: path.display().to_string(),
+            source,
+        },
+        rtsim_core::FileError::Parse {
+            path,
+            line,
+            message,
+        } => ConfigError::Parse {
+            origin: format!("{}:{line}", path.display()),
+            message,
+        },
+    })
 }
 
 /// A family of named presets: a key of the tree names which preset of the family to merge

@@ -839,10 +839,7 @@ pub fn layers(user: &UserLayers<'_>) -> Result<Layers, ConfigError> {
     // First the user's own layers, to find which preset they ask for.
     let mut mine = Layers::new();
     if let Some(path) = user.file {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = rtsim_config::read_config_file(path)?;
         let origin = path.display().to_string();
         let mut table = rtsim_config::parse_toml(&text, &origin)?;
         if let Some(Value::Table(d)) = table.remove("dram") {

@@ -23,9 +23,10 @@ use rtsim_core::text::echo;
 use std::io::{BufRead, Read};
 use std::path::Path;
 
-/// Most elements reserved up front, whatever the header claims (assumed: 16 M; a corrupt
-/// count must not allocate gigabytes before the body proves it).
-const MAX_RESERVE: u64 = 1 << 24;
+/// Most elements reserved up front, whatever the header claims (assumed: 1 M, 12 MB of
+/// positions; a corrupt count must not allocate before the body proves it, and beyond this
+/// the vectors grow by doubling as the records arrive).
+const MAX_RESERVE: u64 = 1 << 20;
 
 /// List entries read per block in binary files (assumed: 4096 covers any real polygon in one
 /// read while bounding the buffer).
