@@ -21,7 +21,7 @@ pub mod ply;
 mod input;
 mod num;
 
-pub use input::{Compression, open_decompressed};
+pub use input::{Compression, decompress, open_decompressed};
 
 use crate::{LoadReport, Material, SceneError, Triangle, triangle_defect};
 use rtsim_core::{Affine, Vec3};
