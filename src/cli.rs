@@ -170,7 +170,11 @@ mod tests {
     fn unsigned_flags_state_the_range() {
         assert_eq!(u32_arg("12"), Ok(12));
         assert!(u32_arg("-1").unwrap_err().contains("must not be negative"));
-        assert!(u32_arg("4294967296").unwrap_err().contains("0..=4294967295"));
+        assert!(
+            u32_arg("4294967296")
+                .unwrap_err()
+                .contains("0..=4294967295")
+        );
         assert!(u64_arg("x").unwrap_err().contains("not a whole number"));
     }
 }

@@ -31,7 +31,9 @@ pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
     if let Some(t) = args.threads {
         let max = rtsim_run::MAX_THREADS;
         if t > max {
-            return Err(ConfigError::range("--threads", t, format!("0..={max} (0 = all cores)")).into());
+            return Err(
+                ConfigError::range("--threads", t, format!("0..={max} (0 = all cores)")).into(),
+            );
         }
         i.flag("threads", t as i64);
     }

@@ -9,10 +9,10 @@ use crate::run_config;
 use crate::session::{fast_path, thread_pool};
 use anyhow::{Context, Result};
 use rayon::prelude::*;
-use rtsim_core::Ray;
-use rtsim_trace::fast::FastBvh;
 use rtsim_config::ConfigError;
+use rtsim_core::Ray;
 use rtsim_core::output::OutputPlan;
+use rtsim_trace::fast::FastBvh;
 use rtsim_trace::query::encode_rays;
 use rtsim_trace::{Integrator, Query, RayCounters, Tracer, WorkloadKind};
 use std::time::Instant;
@@ -22,7 +22,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return Err(ConfigError::range("--rays", args.rays, format!("1..={MAX_RAYS}")).into());
     }
     if !(1..=MAX_REPEAT).contains(&args.repeat) {
-        return Err(ConfigError::range("--repeat", args.repeat, format!("1..={MAX_REPEAT}")).into());
+        return Err(
+            ConfigError::range("--repeat", args.repeat, format!("1..={MAX_REPEAT}")).into(),
+        );
     }
     let resolved = run_config::resolve(&args.scene, &[])?;
     // `--save-rays`: planned and checked before any measurement.
@@ -148,7 +150,11 @@ const MAX_RAYS: usize = 1 << 24;
 /// Most repetitions of a measurement.
 const MAX_REPEAT: u32 = 1000;
 /// The ray kinds measured, in order.
-const KINDS: [WorkloadKind; 3] = [WorkloadKind::Primary, WorkloadKind::Ao, WorkloadKind::Diffuse];
+const KINDS: [WorkloadKind; 3] = [
+    WorkloadKind::Primary,
+    WorkloadKind::Ao,
+    WorkloadKind::Diffuse,
+];
 
 fn name(kind: WorkloadKind) -> &'static str {
     match kind {
@@ -198,7 +204,7 @@ fn generate(
         rays.try_reserve_exact(total).map_err(|_| {
             anyhow::anyhow!(
                 "cannot allocate {total} rays ({} MB) for {kind:?} rays: lower --rays",
-                total * std::mem::size_of::<Ray>() >> 20
+                (total * std::mem::size_of::<Ray>()) >> 20
             )
         })?;
         rays.extend(rows.into_iter().flatten());

@@ -33,9 +33,14 @@ pub enum ConfigError {
     },
     #[error("invalid --set `{arg}`: {message}")]
     BadSet { arg: String, message: String },
-    #[error("config key `{key}`: {message}")]
+    // Keys and values may come from input (`--set`, a file): echoed, escaped and cut.
+    #[error("config key `{}`: {message}", rtsim_core::text::echo(.key))]
     Key { key: String, message: String },
-    #[error("config key `{key}` = {value}: out of range, allowed {allowed}")]
+    #[error(
+        "config key `{}` = {}: out of range, allowed {allowed}",
+        rtsim_core::text::echo(.key),
+        rtsim_core::text::echo(.value)
+    )]
     Range {
         key: String,
         value: String,
@@ -84,7 +89,7 @@ impl ConfigError {
     pub fn unknown(kind: &str, name: &str, known: &[&str]) -> Self {
         ConfigError::Unknown {
             kind: kind.into(),
-            name: name.into(),
+            name: rtsim_core::text::echo(name),
             known: known.join(", "),
         }
     }
@@ -136,7 +141,11 @@ enum Source {
     /// One `--set` or flag assignment of a dotted key.
     Assignment { origin: String, key: String },
     /// A table merged under `prefix` (presets, a descriptor's `[workload]`).
-    Table { origin: String, prefix: String, table: Table },
+    Table {
+        origin: String,
+        prefix: String,
+        table: Table,
+    },
 }
 
 impl Layers {
@@ -215,9 +224,7 @@ impl Layers {
                 Source::Text { origin, text } => {
                     key_line(text, &key).map(|line| format!("{origin}:{line}"))
                 }
-                Source::Assignment { origin, key: k } => {
-                    covers(k, &key).then(|| origin.clone())
-                }
+                Source::Assignment { origin, key: k } => covers(k, &key).then(|| origin.clone()),
                 Source::Table {
                     origin,
                     prefix,
@@ -268,7 +275,7 @@ impl Layers {
     /// so `--set scene.name=sibenik` works without quotes.
     pub fn set(&mut self, assignment: &str) -> Result<(), ConfigError> {
         let bad = |m: &str| ConfigError::BadSet {
-            arg: assignment.into(),
+            arg: rtsim_core::text::echo(assignment),
             message: m.into(),
         };
         let (key, raw) = assignment
@@ -562,6 +569,10 @@ pub fn deserialize_table<T: DeserializeOwned>(
             .unwrap_or_default()
             .trim()
             .to_string();
+        // serde quotes the offending field or string raw: echo it, escaped and cut.
+        let message = ['`', '"']
+            .iter()
+            .fold(message, |m, &q| rtsim_core::text::echo_quoted(&m, q));
         ConfigError::Key { key, message }
     })
 }
@@ -737,7 +748,10 @@ mod tests {
         l.merge_str("[inner]\nbinz = 3\n", "u.toml").unwrap();
         let e = l.build::<Root>().unwrap_err().to_string();
         assert!(e.starts_with("u.toml:"), "{e}");
-        assert_eq!(key_line("a = 1\n[[m]]\nx = 1\n[[m]]\nx = 2\n", "m[1].x"), Some(5));
+        assert_eq!(
+            key_line("a = 1\n[[m]]\nx = 1\n[[m]]\nx = 2\n", "m[1].x"),
+            Some(5)
+        );
     }
 
     #[test]
@@ -766,10 +780,7 @@ mod tests {
             parse_value("fr-fcfs").unwrap(),
             Value::String("fr-fcfs".into())
         );
-        assert_eq!(
-            parse_value("\"x y\"").unwrap(),
-            Value::String("x y".into())
-        );
+        assert_eq!(parse_value("\"x y\"").unwrap(), Value::String("x y".into()));
         let e = parse_value("18446744073709551615").unwrap_err();
         assert!(e.contains("9223372036854775807"), "{e}");
     }

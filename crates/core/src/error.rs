@@ -63,4 +63,3 @@ pub fn describe_file_type(ft: &std::fs::FileType) -> &'static str {
         "a regular file"
     }
 }
-

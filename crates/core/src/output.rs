@@ -164,7 +164,14 @@ impl OutputPlan {
                         ),
                     ));
                 }
-                Err(e) if e.kind() == io::ErrorKind::NotFound => create_dir_all(dir)?,
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::NotFound | io::ErrorKind::NotADirectory
+                    ) =>
+                {
+                    create_dir_all(dir)?
+                }
                 Err(e) => return Err(OutputError::io(dir, e)),
             }
         }
@@ -310,8 +317,7 @@ impl OutputSet {
     /// Write planned output `path` whole.
     pub fn write(&mut self, path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
         let mut f = self.create(path)?;
-        f.write_all(bytes)
-            .map_err(|e| OutputError::io(path, e))?;
+        f.write_all(bytes).map_err(|e| OutputError::io(path, e))?;
         self.finish(f)
     }
 
@@ -436,7 +442,10 @@ fn create_dir_all(dir: &Path) -> Result<(), OutputError> {
         match blocker {
             Some(b) => OutputError::refused(
                 dir,
-                format!("cannot create this directory: {} is not a directory", b.display()),
+                format!(
+                    "cannot create this directory: {} is not a directory",
+                    b.display()
+                ),
             ),
             None => OutputError::io(dir, e),
         }
@@ -910,7 +919,12 @@ mod tests {
         };
         write_atomic(&dev, b"discarded").unwrap();
         use std::os::unix::fs::FileTypeExt;
-        assert!(fs::symlink_metadata(&dev).unwrap().file_type().is_char_device());
+        assert!(
+            fs::symlink_metadata(&dev)
+                .unwrap()
+                .file_type()
+                .is_char_device()
+        );
     }
 
     #[test]
@@ -931,7 +945,10 @@ mod tests {
             .prepare()
             .unwrap_err()
             .to_string();
-        assert!(e.contains("--out must be a directory, but this is a regular file"), "{e}");
+        assert!(
+            e.contains("--out must be a directory, but this is a regular file"),
+            "{e}"
+        );
         let e = write_atomic(d.join("rays.bin/x"), b"x")
             .unwrap_err()
             .to_string();

@@ -72,6 +72,27 @@ fn push_escaped(out: &mut String, c: char) {
     }
 }
 
+/// `message` (from a library that quotes input raw, such as serde or clap) with each span
+/// between two `quote` characters that is too long or holds control characters replaced by
+/// its [`echo`]; other spans are left alone.
+pub fn echo_quoted(message: &str, quote: char) -> String {
+    let parts: Vec<&str> = message.split(quote).collect();
+    let mut out = String::with_capacity(message.len().min(1024));
+    for (i, part) in parts.iter().enumerate() {
+        if i > 0 {
+            out.push(quote);
+        }
+        // Odd parts are inside a pair of quotes (when a closing quote follows).
+        let quoted = i % 2 == 1 && i + 1 < parts.len();
+        if quoted && (part.chars().count() > ECHO_CHARS || part.chars().any(char::is_control)) {
+            out.push_str(&echo(part));
+        } else {
+            out.push_str(part);
+        }
+    }
+    out
+}
+
 /// `s` with every control character escaped (`\n`, `\u{1b}` …); nothing is cut.
 pub fn escape_controls(s: &str) -> String {
     if !s.chars().any(char::is_control) {
@@ -158,11 +179,19 @@ pub fn read_text_file(path: &Path) -> Result<String, FileError> {
         let bytes = e.as_bytes();
         let at = e.utf8_error().valid_up_to();
         let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() as u64 + 1;
-        let col = at - bytes[..at].iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1) + 1;
+        let col = at
+            - bytes[..at]
+                .iter()
+                .rposition(|&b| b == b'\n')
+                .map_or(0, |i| i + 1)
+            + 1;
         FileError::at(
             path,
             line,
-            format!("not valid UTF-8 text (byte 0x{:02x} at column {col})", bytes[at]),
+            format!(
+                "not valid UTF-8 text (byte 0x{:02x} at column {col})",
+                bytes[at]
+            ),
         )
     })
 }
@@ -182,22 +211,39 @@ mod tests {
         assert!(e.ends_with("… (10000 bytes in all)"), "{e}");
         assert!(e.chars().count() < ECHO_CHARS + 30);
         assert_eq!(escape_controls("a\tb\u{7}"), "a\\tb\\u{7}");
+        let m = format!("unknown field `{long}`, expected `a` or `b\u{7}`");
+        let e = echo_quoted(&m, '`');
+        assert!(e.starts_with("unknown field `xxx") && e.contains("(10000 bytes in all)`"));
+        assert!(e.ends_with(", expected `a` or `b\\u{7}`"), "{e}");
+        assert_eq!(echo_quoted("it's `ok`", '`'), "it's `ok`");
     }
 
     #[test]
     fn bounded_lines() {
         let mut r: &[u8] = b"ab\ncdefg\ngh";
         let mut buf = Vec::new();
-        assert_eq!(read_line_bounded(&mut r, &mut buf, 4).unwrap(), Line::Read(3));
+        assert_eq!(
+            read_line_bounded(&mut r, &mut buf, 4).unwrap(),
+            Line::Read(3)
+        );
         buf.clear();
-        assert_eq!(read_line_bounded(&mut r, &mut buf, 4).unwrap(), Line::TooLong);
+        assert_eq!(
+            read_line_bounded(&mut r, &mut buf, 4).unwrap(),
+            Line::TooLong
+        );
         assert_eq!(buf, b"cdef");
         let mut r: &[u8] = b"abcd\n";
         buf.clear();
-        assert_eq!(read_line_bounded(&mut r, &mut buf, 4).unwrap(), Line::Read(5));
+        assert_eq!(
+            read_line_bounded(&mut r, &mut buf, 4).unwrap(),
+            Line::Read(5)
+        );
         let mut r: &[u8] = b"abcd";
         buf.clear();
-        assert_eq!(read_line_bounded(&mut r, &mut buf, 4).unwrap(), Line::Read(4));
+        assert_eq!(
+            read_line_bounded(&mut r, &mut buf, 4).unwrap(),
+            Line::Read(4)
+        );
         buf.clear();
         assert_eq!(read_line_bounded(&mut r, &mut buf, 4).unwrap(), Line::Eof);
         // A newline-free stream stops at the limit.

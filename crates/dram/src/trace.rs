@@ -443,15 +443,24 @@ mod tests {
         let zeros = std::io::BufReader::new(std::io::repeat(0));
         let mut r = TraceReader::new(zeros, Path::new("/dev/zero"), TraceFormat::Rtsim);
         let e = r.next().unwrap().unwrap_err().to_string();
-        assert!(e.starts_with("/dev/zero:1:") && e.contains("longer than"), "{e}");
+        assert!(
+            e.starts_with("/dev/zero:1:") && e.contains("longer than"),
+            "{e}"
+        );
         let bad = b"0 R 0x0\n1 R \xff\n";
         let mut r = TraceReader::new(&bad[..], Path::new("t"), TraceFormat::Rtsim);
         assert!(r.next().unwrap().is_ok());
         let e = r.next().unwrap().unwrap_err().to_string();
-        assert!(e.starts_with("t:2:") && e.contains("UTF-8") && e.contains("column 5"), "{e}");
-        let e = parse_line(TraceFormat::Rtsim, &format!("1 R 0x{}\u{1b}", "f".repeat(10_000)))
-            .unwrap_err()
-            .to_string();
+        assert!(
+            e.starts_with("t:2:") && e.contains("UTF-8") && e.contains("column 5"),
+            "{e}"
+        );
+        let e = parse_line(
+            TraceFormat::Rtsim,
+            &format!("1 R 0x{}\u{1b}", "f".repeat(10_000)),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.len() < 200 && !e.contains('\u{1b}'), "{e}");
     }
 

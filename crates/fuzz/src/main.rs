@@ -87,7 +87,11 @@ fn main() -> ExitCode {
         let regressions = inputs_of(&regressions_dir(), t.name);
         seeds.extend(regressions.iter().cloned());
         if seeds.is_empty() {
-            eprintln!("rtsim-fuzz: target {} has no seeds in {}", t.name, corpus_dir().display());
+            eprintln!(
+                "rtsim-fuzz: target {} has no seeds in {}",
+                t.name,
+                corpus_dir().display()
+            );
             return ExitCode::FAILURE;
         }
         let mut m = Mutator::new(seed ^ (ti as u64) << 32);

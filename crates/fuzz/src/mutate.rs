@@ -5,17 +5,50 @@ use rtsim_core::Pcg32;
 
 /// Numbers that break parsers: zero, signs, type limits, float specials.
 const NUMBERS: &[&[u8]] = &[
-    b"0", b"-1", b"-0", b"1", b"255", b"256", b"65536", b"2147483647", b"2147483648",
-    b"4294967295", b"4294967296", b"9223372036854775807", b"9223372036854775808",
-    b"18446744073709551615", b"18446744073709551616", b"1e39", b"3.4e38", b"-3.4e38", b"1e-45",
-    b"nan", b"inf", b"-inf", b"0x", b"1.5.2", b"+", b"",
+    b"0",
+    b"-1",
+    b"-0",
+    b"1",
+    b"255",
+    b"256",
+    b"65536",
+    b"2147483647",
+    b"2147483648",
+    b"4294967295",
+    b"4294967296",
+    b"9223372036854775807",
+    b"9223372036854775808",
+    b"18446744073709551615",
+    b"18446744073709551616",
+    b"1e39",
+    b"3.4e38",
+    b"-3.4e38",
+    b"1e-45",
+    b"nan",
+    b"inf",
+    b"-inf",
+    b"0x",
+    b"1.5.2",
+    b"+",
+    b"",
 ];
 
 /// Bytes that break text readers: line endings, NUL, escape, invalid UTF-8.
-const BYTES: &[u8] = &[0, b'\n', b'\r', b' ', b'\t', b'#', b'-', b'.', 0x1b, 0x7f, 0xff, 0xc3];
+const BYTES: &[u8] = &[
+    0, b'\n', b'\r', b' ', b'\t', b'#', b'-', b'.', 0x1b, 0x7f, 0xff, 0xc3,
+];
 
 /// 32-bit words that break binary readers (little-endian): counts, NaN, infinity.
-const WORDS: &[u32] = &[0, 1, 0xffff_ffff, 0x7fff_ffff, 0x8000_0000, 0x7fc0_0000, 0x7f80_0000, 3];
+const WORDS: &[u32] = &[
+    0,
+    1,
+    0xffff_ffff,
+    0x7fff_ffff,
+    0x8000_0000,
+    0x7fc0_0000,
+    0x7f80_0000,
+    3,
+];
 
 /// Largest input the mutator produces (assumed: 64 KiB, far above every seed; bigger inputs
 /// only slow the runs down).
@@ -44,13 +77,7 @@ impl Mutator {
 
     /// A mutant of `input`: 1–8 stacked mutations, using the target's `dict` and `other`
     /// corpus entries for splicing; `binary` adds aligned word overwrites.
-    pub fn mutate(
-        &mut self,
-        input: &[u8],
-        dict: &[&[u8]],
-        other: &[u8],
-        binary: bool,
-    ) -> Vec<u8> {
+    pub fn mutate(&mut self, input: &[u8], dict: &[&[u8]], other: &[u8], binary: bool) -> Vec<u8> {
         let mut b = input.to_vec();
         let rounds = 1 + self.below(8);
         for _ in 0..rounds {
@@ -119,7 +146,11 @@ impl Mutator {
                     if b.len() >= 4 {
                         let i = self.below(b.len() / 4) * 4;
                         let w = WORDS[self.below(WORDS.len())];
-                        let w = if self.below(2) == 0 { w } else { w.swap_bytes() };
+                        let w = if self.below(2) == 0 {
+                            w
+                        } else {
+                            w.swap_bytes()
+                        };
                         b[i..i + 4].copy_from_slice(&w.to_le_bytes());
                     }
                 }
@@ -138,7 +169,9 @@ impl Mutator {
             return;
         }
         let s = starts[self.below(starts.len())];
-        let e = (s..b.len()).find(|&i| !b[i].is_ascii_digit()).unwrap_or(b.len());
+        let e = (s..b.len())
+            .find(|&i| !b[i].is_ascii_digit())
+            .unwrap_or(b.len());
         let n = NUMBERS[self.below(NUMBERS.len())];
         b.splice(s..e, n.iter().copied());
     }

@@ -2,8 +2,8 @@
 //! rules: no panic, no input running over the hang limit, no oversized allocation.
 
 use rtsim_fuzz::{
-    ALLOC_LIMIT_BYTES, HANG_SECONDS, LimitedAlloc, TARGETS, corpus_dir, inputs_of,
-    regressions_dir, run_one,
+    ALLOC_LIMIT_BYTES, HANG_SECONDS, LimitedAlloc, TARGETS, corpus_dir, inputs_of, regressions_dir,
+    run_one,
 };
 use std::time::{Duration, Instant};
 

@@ -302,7 +302,7 @@ pub fn resolve(inputs: &Inputs, note: &mut dyn FnMut(&str)) -> Result<Resolved, 
         scene_dir: scene_dir.as_deref(),
     })
     .map_err(|source| RunError::Scene {
-        name: config.scene.name.clone(),
+        name: rtsim_core::text::echo(&config.scene.name),
         source,
     })?;
     for line in scene.report.log_lines() {

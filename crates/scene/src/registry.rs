@@ -128,7 +128,7 @@ pub fn known_names() -> Vec<&'static str> {
 
 fn unknown(name: &str) -> SceneError {
     SceneError::UnknownScene {
-        name: name.to_string(),
+        name: rtsim_core::text::echo(name),
         known: format!(
             "{} (or a path to a .toml descriptor or an .obj/.ply mesh, optionally .zst/.gz)",
             known_names().join(", ")
@@ -173,8 +173,7 @@ pub fn load_scene(req: &SceneRequest<'_>) -> Result<Scene, SceneError> {
         }
         SceneSource::File(path) => {
             // Checked before opening: a FIFO would wait for a writer, a directory has no text.
-            let meta =
-                std::fs::metadata(&path).map_err(|e| rtsim_core::FileError::io(&path, e))?;
+            let meta = std::fs::metadata(&path).map_err(|e| rtsim_core::FileError::io(&path, e))?;
             if !meta.is_file() {
                 let kind = rtsim_core::error::describe_file_type(&meta.file_type());
                 return Err(rtsim_core::FileError::io(

@@ -10,11 +10,11 @@
 mod functional;
 
 use crate::cli::SceneArgs;
+use crate::commands::FrameOutputs;
 use crate::run_config::Flag;
 use crate::session::{self, Session};
 use anyhow::Result;
 use clap::Args;
-use crate::commands::FrameOutputs;
 use rtsim_trace::film::heatmap_rgb8;
 use rtsim_trace::{PixelResult, ToneMap, WorkloadKind};
 use serde::Serialize;

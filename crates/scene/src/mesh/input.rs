@@ -148,21 +148,25 @@ impl<'p, R: BufRead> LineReader<'p, R> {
             let start = self.buf.len();
             let line_no = self.lines_read + 1;
             let done = self.lines_read;
-            let read = read_line_bounded(&mut self.reader, &mut self.buf, MAX_LINE_BYTES)
-                .map_err(|e| {
+            let read = read_line_bounded(&mut self.reader, &mut self.buf, MAX_LINE_BYTES).map_err(
+                |e| {
                     if e.kind() == std::io::ErrorKind::InvalidData
                         || e.kind() == std::io::ErrorKind::UnexpectedEof
                     {
                         // The compressed stream's problem, not the text's.
                         rtsim_core::FileError::io(
                             self.path,
-                            std::io::Error::new(e.kind(), format!("{e}, after {done} line(s) of text")),
+                            std::io::Error::new(
+                                e.kind(),
+                                format!("{e}, after {done} line(s) of text"),
+                            ),
                         )
                         .into()
                     } else {
                         super::parse_error(self.path, line_no, format!("read error: {e}"))
                     }
-                })?;
+                },
+            )?;
             let n = match read {
                 Line::Eof => {
                     if start == 0 && self.lines_read + 1 == first {
@@ -340,10 +344,16 @@ mod tests {
         let e = err(b"v 1 2 3\rv 4 5 6\r");
         assert!(e.starts_with("t.obj:1:") && e.contains("CR-only"), "{e}");
         let e = err(b"v 1 2 3\n\x89PNG\x00\x01");
-        assert!(e.starts_with("t.obj:2:") && e.contains("binary data"), "{e}");
+        assert!(
+            e.starts_with("t.obj:2:") && e.contains("binary data"),
+            "{e}"
+        );
         let long = vec![b'x'; MAX_LINE_BYTES + 10];
         let e = err(&long);
-        assert!(e.starts_with("t.obj:1:") && e.contains("longer than"), "{e}");
+        assert!(
+            e.starts_with("t.obj:1:") && e.contains("longer than"),
+            "{e}"
+        );
     }
 
     #[test]

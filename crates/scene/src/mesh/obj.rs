@@ -141,10 +141,7 @@ impl<'p> ObjParser<'p> {
                         )
                     })?;
                     *c = parse_f32(tok).ok_or_else(|| {
-                        self.err(
-                            line_no,
-                            format!("malformed number `{}`", echo(tok)),
-                        )
+                        self.err(line_no, format!("malformed number `{}`", echo(tok)))
                     })?;
                 }
                 self.positions.push(Vec3::from_array(xyz));
@@ -174,9 +171,7 @@ impl<'p> ObjParser<'p> {
             k if IGNORED.contains(&k) => {}
             k if NOT_POLYGONS.contains(&k) => self.not_polygons += 1,
             k => {
-                self.unknown
-                    .entry(echo(k))
-                    .or_insert(line_no);
+                self.unknown.entry(echo(k)).or_insert(line_no);
             }
         }
         Ok(())
@@ -344,12 +339,7 @@ impl<'p> ObjParser<'p> {
         let path = self.path.display();
         if !self.undefined.is_empty() {
             const SHOWN: usize = 8;
-            let mut names: Vec<String> = self
-                .undefined
-                .iter()
-                .take(SHOWN)
-                .map(echo)
-                .collect();
+            let mut names: Vec<String> = self.undefined.iter().take(SHOWN).map(echo).collect();
             if self.undefined.len() > SHOWN {
                 names.push("…".into());
             }

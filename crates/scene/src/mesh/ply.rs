@@ -190,7 +190,12 @@ pub fn parse_ply_sized<R: BufRead>(
     let mut lines = LineReader::new(reader, path, false);
     let (encoding, elements) = parse_header(&mut lines, path)?;
     let layout = find_layout(&elements, path)?;
-    check_counts(&elements, encoding, len.map(|l| l.saturating_sub(lines.bytes_read())), path)?;
+    check_counts(
+        &elements,
+        encoding,
+        len.map(|l| l.saturating_sub(lines.bytes_read())),
+        path,
+    )?;
     let vertex_count = elements[layout.vertex].count;
     if vertex_count > u32::MAX as u64 {
         return Err(format_error(
@@ -235,9 +240,11 @@ pub fn parse_ply_sized<R: BufRead>(
             body.read_binary(&mut reader, big)?;
             let mut extra = [0u8; 1];
             let at = reader.offset;
-            if reader.inner.read(&mut extra).map_err(|e| {
-                format_error(path, format!("read error at byte offset {at}: {e}"))
-            })? > 0
+            if reader
+                .inner
+                .read(&mut extra)
+                .map_err(|e| format_error(path, format!("read error at byte offset {at}: {e}")))?
+                > 0
             {
                 return Err(format_error(
                     path,
@@ -721,10 +728,7 @@ impl Body<'_> {
                         Property::Scalar { ty, name } => {
                             let t = next(name)?;
                             let v = parse_scalar(*ty, t).ok_or_else(|| {
-                                err(format!(
-                                    "malformed {ty:?} value `{}` for `{name}`",
-                                    echo(t)
-                                ))
+                                err(format!("malformed {ty:?} value `{}` for `{name}`", echo(t)))
                             })?;
                             if ei == self.layout.vertex
                                 && let Some(a) = self.layout.xyz.iter().position(|&x| x == pi)
@@ -735,10 +739,7 @@ impl Body<'_> {
                         Property::List { item, name, .. } => {
                             let t = next(name)?;
                             let len = parse_i64(t).filter(|&l| l >= 0).ok_or_else(|| {
-                                err(format!(
-                                    "malformed list length `{}` for `{name}`",
-                                    echo(t)
-                                ))
+                                err(format!("malformed list length `{}` for `{name}`", echo(t)))
                             })?;
                             for _ in 0..len {
                                 let t = next(name)?;
@@ -1079,7 +1080,10 @@ element face 2\r\nproperty list uchar int vertex_index\r\nproperty float q\r\nen
     #[test]
     fn duplicated_declarations_are_errors() {
         let e = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float x\nend_header\n".to_vec());
-        assert!(e.starts_with("t.ply:5:") && e.contains("`x` of element `vertex` is declared twice"), "{e}");
+        assert!(
+            e.starts_with("t.ply:5:") && e.contains("`x` of element `vertex` is declared twice"),
+            "{e}"
+        );
         let e = err(tri_header("ascii", "element vertex 1\nproperty float x\n"));
         assert!(e.contains("element `vertex` is declared twice"), "{e}");
     }
@@ -1089,12 +1093,18 @@ element face 2\r\nproperty list uchar int vertex_index\r\nproperty float q\r\nen
         let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n\n";
         assert!(parse(text.as_bytes().to_vec()).is_ok());
         let e = err(format!("{text}3 0 1 2\n").into_bytes());
-        assert!(e.starts_with("t.ply:15:") && e.contains("after the last element"), "{e}");
+        assert!(
+            e.starts_with("t.ply:15:") && e.contains("after the last element"),
+            "{e}"
+        );
         let mut b = tri_header("binary_little_endian", "");
         tri_body_le(&mut b);
         assert!(parse(b.clone()).is_ok());
         b.extend_from_slice(b"garbage");
         let e = err(b);
-        assert!(e.contains("data after the last element, from byte offset"), "{e}");
+        assert!(
+            e.contains("data after the last element, from byte offset"),
+            "{e}"
+        );
     }
 }
