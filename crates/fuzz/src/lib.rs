@@ -17,7 +17,7 @@
 //!   `tests/replay.rs` replays both on every `cargo test`; the `rtsim-fuzz` binary mutates
 //!   the seeds for a bounded time per target and saves new failures into `regressions/`.
 //!
-//! See `docs/FUZZING.md`.
+//! See `docs/HARDENING.md`.
 
 pub mod mutate;
 pub mod targets;

@@ -2,7 +2,7 @@
 //! crashes, hangs or asks for an oversized allocation in `crates/fuzz/regressions/`.
 //!
 //! ```text
-//! cargo run --release -p rtsim-fuzz -- [--seconds S] [--seed N] [TARGET ...]
+//! cargo run --release -p rtsim-fuzz -- [--seconds S | --total-seconds T] [--seed N] [TARGET ...]
 //! cargo run --release -p rtsim-fuzz -- --list
 //! ```
 //!
@@ -32,6 +32,7 @@ static ALLOC: LimitedAlloc = LimitedAlloc { on_excess };
 
 fn main() -> ExitCode {
     let mut seconds = 10.0f64;
+    let mut total_seconds: Option<f64> = None;
     let mut seed = 1u64;
     let mut names: Vec<String> = Vec::new();
     let mut args = std::env::args().skip(1);
@@ -40,6 +41,12 @@ fn main() -> ExitCode {
             "--seconds" => match args.next().and_then(|s| s.parse().ok()) {
                 Some(s) => seconds = s,
                 None => return usage("--seconds takes a number"),
+            },
+            // A budget for the whole run, split evenly between the targets run (CI's form:
+            // adding a target does not lengthen CI).
+            "--total-seconds" => match args.next().and_then(|s| s.parse().ok()) {
+                Some(s) => total_seconds = Some(s),
+                None => return usage("--total-seconds takes a number"),
             },
             "--seed" => match args.next().and_then(|s| s.parse().ok()) {
                 Some(s) => seed = s,
@@ -59,6 +66,14 @@ fn main() -> ExitCode {
                 names.push(name.to_string());
             }
         }
+    }
+    if let Some(total) = total_seconds {
+        let n = if names.is_empty() {
+            TARGETS.len()
+        } else {
+            names.len()
+        };
+        seconds = total / n as f64;
     }
     // Panics are caught and reported per input; the default hook would flood stderr.
     std::panic::set_hook(Box::new(|_| {}));
@@ -148,7 +163,10 @@ fn usage(problem: &str) -> ExitCode {
     if !problem.is_empty() {
         eprintln!("rtsim-fuzz: {problem}");
     }
-    eprintln!("usage: rtsim-fuzz [--seconds S] [--seed N] [--list] [TARGET ...]");
+    eprintln!(
+        "usage: rtsim-fuzz [--seconds S (per target) | --total-seconds T] [--seed N] [--list] \
+         [TARGET ...]"
+    );
     if problem.is_empty() {
         ExitCode::SUCCESS
     } else {
