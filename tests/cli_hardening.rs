@@ -501,3 +501,266 @@ fn echoed_input_is_escaped_and_cut() {
         assert!(!stderr.contains(&"9".repeat(100)) && !stderr.contains(&"x".repeat(100)));
     }
 }
+
+#[test]
+fn a_failure_while_writing_names_the_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rays = one_ray(d);
+    // /dev/full: written through (a device), and every write fails with ENOSPC.
+    let e = fails(
+        rtsim()
+            .args(["trace", "--rays"])
+            .arg(&rays)
+            .args(["--out", "/dev/full"])
+            .current_dir(d),
+    );
+    assert!(
+        e.contains("/dev/full") && e.contains("No space left"),
+        "{e}"
+    );
+    assert!(leftovers(d).is_empty());
+}
+
+/// `rtsim ARGS` in `d` fails; its message contains every one of `want`.
+fn says(d: &Path, args: &[&str], want: &[&str]) {
+    let e = fails(rtsim().args(args).current_dir(d));
+    for w in want {
+        assert!(e.contains(w), "{args:?}: `{w}` missing from {e}");
+    }
+}
+
+/// Issue 11 §3: each message names the real problem and where it is.
+#[test]
+fn messages_point_at_the_right_thing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let w = |name: &str, bytes: &[u8]| fs::write(d.join(name), bytes).unwrap();
+    w("exists", b"x");
+    w("ok.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    w("cr.obj", b"v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r");
+    w("junk.obj", b"\x04\x9f\x00\x13binary");
+    w("bad.obj.gz", b"\x1f\x8b\x08\x00junkjunkjunk");
+    let ply = fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/fuzz/corpus/ply/le.ply"))
+        .unwrap();
+    w("mesh.obj", &ply);
+    w("dupkey.toml", b"[workload]\nspp = 1\nspp = 2\n");
+    w("latin1.toml", b"[workload]\n# caf\xe9\n");
+    w(
+        "wl.toml",
+        b"[[mesh]]\nfile = \"ok.obj\"\n[workload]\nspp = -3\n",
+    );
+    w("zero.toml", b"[[mesh]]\nfile = \"ok.obj\"\n\nscale = 0\n");
+    fs::create_dir(d.join("adir")).unwrap();
+    let out = ["--out", "o"];
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec![
+                "dram",
+                "--synthetic",
+                "random",
+                "--set",
+                "timing.clock_mhz=0",
+                "--out",
+                "o",
+            ],
+            vec!["timing.clock_mhz", "0.001..="],
+        ),
+        (
+            vec!["dram", "--synthetic", "random", "--out", "exists"],
+            vec!["exists", "must be a directory, but this is a regular file"],
+        ),
+        (
+            vec!["render", "--out", "exists"],
+            vec!["exists", "must be a directory"],
+        ),
+        (
+            vec!["export-triangles", "--scene", "adir", "--out", "t.bin"],
+            vec!["adir", "is a directory, not a scene file"],
+        ),
+        (
+            vec!["export-triangles", "--scene", "/dev/null", "--out", "t.bin"],
+            vec!["character device, not a scene file"],
+        ),
+        (
+            vec!["export-triangles", "--scene", "mesh.obj", "--out", "t.bin"],
+            vec!["mesh.obj:1", "PLY", "name it .ply"],
+        ),
+        (
+            vec!["export-triangles", "--scene", "cr.obj", "--out", "t.bin"],
+            vec!["cr.obj:1", "CR-only"],
+        ),
+        (
+            vec!["export-triangles", "--scene", "junk.obj", "--out", "t.bin"],
+            vec!["junk.obj:1", "binary data"],
+        ),
+        (
+            vec![
+                "export-triangles",
+                "--scene",
+                "bad.obj.gz",
+                "--out",
+                "t.bin",
+            ],
+            vec!["bad.obj.gz", "corrupt gzip data"],
+        ),
+        (
+            [&["render", "--config", "dupkey.toml"][..], &out].concat(),
+            vec!["dupkey.toml:3", "duplicate key `spp`"],
+        ),
+        (
+            [&["render", "--config", "latin1.toml"][..], &out].concat(),
+            vec!["latin1.toml:2", "not valid UTF-8", "column 6"],
+        ),
+        (
+            [&["render", "--scene", "wl.toml"][..], &out].concat(),
+            vec!["wl.toml", "[workload]", "workload.spp"],
+        ),
+        (
+            [&["render", "--scene", "zero.toml"][..], &out].concat(),
+            vec!["zero.toml:4", "mesh[0].scale"],
+        ),
+        (
+            [&["render", "--set", "seed=18446744073709551615"][..], &out].concat(),
+            vec![
+                "18446744073709551615",
+                "-9223372036854775808..=9223372036854775807",
+            ],
+        ),
+        (
+            [&["render", "--seed", "18446744073709551615"][..], &out].concat(),
+            vec!["seed", "0..=9223372036854775807"],
+        ),
+    ];
+    for (args, want) in &cases {
+        says(d, args, want);
+    }
+    // A negative value for an unsigned flag: the range, not "unexpected argument '-1'".
+    let o = rtsim().args(["render", "--width", "-1"]).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("must not be negative (allowed 0..=4294967295)"),
+        "{e}"
+    );
+    assert!(!d.join("o").exists(), "a failed run left its --out behind");
+}
+
+/// Issue 11 §4: input that is probably wrong is an error or a warning, never silent.
+#[test]
+fn probably_wrong_input_is_not_accepted_silently() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let w = |name: &str, bytes: &[u8]| fs::write(d.join(name), bytes).unwrap();
+    w("empty.trc", b"# only a comment\n\n");
+    w("empty.ctrc", b"# only a comment\n");
+    let header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                  property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+                  end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    w("tail.ply", format!("{header}garbage\n").as_bytes());
+    w(
+        "dupprop.ply",
+        header
+            .replace("property float y\n", "property float x\n")
+            .as_bytes(),
+    );
+    w(
+        "twovertex.ply",
+        header
+            .replace(
+                "element face",
+                "element vertex 1\nproperty float x\nelement face",
+            )
+            .as_bytes(),
+    );
+    w(
+        "huge.obj",
+        b"v -3e38 -3e38 -3e38\nv 3e38 -3e38 -3e38\nv 0 3e38 3e38\nf 1 2 3\n",
+    );
+    says(
+        d,
+        &["dram", "--trace", "empty.trc", "--out", "o"],
+        &["empty.trc", "no requests"],
+    );
+    says(
+        d,
+        &["cache", "--trace", "empty.ctrc", "--out", "o"],
+        &["no accesses"],
+    );
+    says(
+        d,
+        &[
+            "dram",
+            "--synthetic",
+            "random",
+            "--requests",
+            "0",
+            "--out",
+            "o",
+        ],
+        &["--requests", "1..="],
+    );
+    says(
+        d,
+        &["export-triangles", "--scene", "tail.ply", "--out", "t.bin"],
+        &["tail.ply:14", "data after the last element"],
+    );
+    says(
+        d,
+        &[
+            "export-triangles",
+            "--scene",
+            "dupprop.ply",
+            "--out",
+            "t.bin",
+        ],
+        &["dupprop.ply:5", "declared twice"],
+    );
+    says(
+        d,
+        &[
+            "export-triangles",
+            "--scene",
+            "twovertex.ply",
+            "--out",
+            "t.bin",
+        ],
+        &["element `vertex` is declared twice"],
+    );
+    says(
+        d,
+        &["render", "--scene", "huge.obj", "--out", "o"],
+        &["huge.obj", "beyond the ±1e18"],
+    );
+    // A light outside the closed box the camera is in: a black image, and a warning.
+    let lit = fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/fuzz/corpus/descriptor/box-only.toml"),
+    )
+    .unwrap();
+    w(
+        "dark.toml",
+        lit.replace("position = [0, 0.5, 0]", "position = [0, 5, 0]")
+            .as_bytes(),
+    );
+    let o = rtsim()
+        .args([
+            "render",
+            "--scene",
+            "dark.toml",
+            "--workload",
+            "path",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "1",
+            "--out",
+            "o",
+        ])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    assert!(e.contains("warning: the image is entirely black"), "{e}");
+}
