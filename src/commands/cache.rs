@@ -7,6 +7,7 @@
 //! Writes `DIR/cache_stats.json` and `DIR/cache_config.resolved.toml` atomically. Trace format,
 //! keys and model: `docs/CACHES.md`.
 
+use super::StatsOutputs;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use rtsim_cache::trace::{
@@ -17,7 +18,7 @@ use rtsim_cache::{
     CacheConfig, CacheStats, FunctionalHierarchy, Hierarchy, MemoryCounts, Parent, Topology,
 };
 use rtsim_config::{ConfigError, Layers};
-use rtsim_core::output::{OutputPlan, OutputSet};
+use rtsim_core::output::OutputSet;
 use rtsim_dram::config::UserLayers;
 use rtsim_dram::{Dram, DramConfig, Report, Requester};
 use serde::Serialize;
@@ -178,17 +179,15 @@ pub fn run(args: CacheArgs) -> Result<()> {
     let (config, dram_sets) = resolve(&args)?;
     let topology = Topology::from_config(&config)?;
     // Pre-flight: the outputs are checked and staged before the replay.
-    let files = OutputFiles::of(&args.out);
-    let mut plan = OutputPlan::new();
-    plan.dir(&args.out, "--out");
-    for f in [&files.stats, &files.config, &files.timing] {
-        plan.file(f);
-    }
-    plan.input("--trace", &args.trace);
-    if let Some(c) = &args.config {
-        plan.input("--config", c);
-    }
-    let outputs = plan.prepare()?;
+    let (files, outputs) = StatsOutputs::prepare(
+        &args.out,
+        "cache_stats.json",
+        "cache_config.resolved.toml",
+        &[
+            ("--trace", Some(&args.trace)),
+            ("--config", args.config.as_deref()),
+        ],
+    )?;
     let bar = crate::progress::bar(0, "accesses");
     let start = Instant::now();
     let mut dram_out = None;
@@ -399,32 +398,13 @@ fn replay_error(e: ReplayError) -> anyhow::Error {
     anyhow::Error::new(e)
 }
 
-/// The files `rtsim cache` writes into `--out`.
-struct OutputFiles {
-    stats: PathBuf,
-    config: PathBuf,
-    timing: PathBuf,
-}
-
-impl OutputFiles {
-    fn of(dir: &Path) -> Self {
-        OutputFiles {
-            stats: dir.join("cache_stats.json"),
-            config: dir.join("cache_config.resolved.toml"),
-            timing: dir.join("timing.json"),
-        }
-    }
-}
-
 fn write_outputs(
-    mut set: OutputSet,
-    files: &OutputFiles,
+    set: OutputSet,
+    files: &StatsOutputs,
     file: &StatsFile<'_>,
     timing: &CacheTiming,
     dram: Option<&DramConfig>,
 ) -> Result<()> {
-    let json = serde_json::to_string_pretty(file).context("serialising cache_stats.json")?;
-    set.write(&files.stats, json.as_bytes())?;
     let mut toml = format!(
         "# rtsim resolved cache configuration: `rtsim cache --config THIS_FILE` repeats the run.\n{}",
         rtsim_config::to_toml_string(file.config)?
@@ -438,12 +418,5 @@ fn write_outputs(
         toml.push('\n');
         toml.push_str(&rtsim_config::to_toml_string(&t)?);
     }
-    set.write(&files.config, toml.as_bytes())?;
-    set.write(
-        &files.timing,
-        serde_json::to_string_pretty(timing)?.as_bytes(),
-    )?;
-    set.commit()?;
-    println!("  wrote {}", files.stats.display());
-    Ok(())
+    files.write(set, file, &toml, timing)
 }

@@ -4,10 +4,11 @@
 //! relative to the DRAM tree, optionally prefixed `dram.`). Prints a summary table and writes
 //! `DIR/dram_stats.json` (and the resolved configuration) atomically. See `docs/DRAM.md`.
 
-use anyhow::{Context, Result, bail};
+use super::StatsOutputs;
+use anyhow::{Result, bail};
 use clap::Args;
 use rtsim_config::ConfigError;
-use rtsim_core::output::{OutputPlan, OutputSet};
+use rtsim_core::output::OutputSet;
 use rtsim_dram::config::{PRESETS, UserLayers};
 use rtsim_dram::trace::{Pattern, Synthetic, TraceError, TraceFormat, TraceReader};
 use rtsim_dram::{Dram, DramConfig, DriveOptions, DriveSummary, Report, Requester, drive};
@@ -180,19 +181,15 @@ pub fn run(args: DramArgs) -> Result<()> {
         max_outstanding_reads: max_outstanding,
     };
     // Pre-flight: the outputs are checked and staged before the run.
-    let mut plan = OutputPlan::new();
-    plan.dir(&args.out, "--out");
-    let files = OutputFiles::of(&args.out);
-    for f in [&files.stats, &files.config, &files.timing] {
-        plan.file(f);
-    }
-    if let Some(t) = &args.trace {
-        plan.input("--trace", t);
-    }
-    if let Some(c) = &args.config {
-        plan.input("--config", c);
-    }
-    let outputs = plan.prepare()?;
+    let (files, outputs) = StatsOutputs::prepare(
+        &args.out,
+        "dram_stats.json",
+        "dram_config.resolved.toml",
+        &[
+            ("--trace", args.trace.as_deref()),
+            ("--config", args.config.as_deref()),
+        ],
+    )?;
     let start = Instant::now();
     let (summary, info_source, pattern) = if let Some(path) = &args.trace {
         (
@@ -308,26 +305,9 @@ fn run_trace(
     Ok(s?)
 }
 
-/// The files `rtsim dram` writes into `--out`.
-struct OutputFiles {
-    stats: PathBuf,
-    config: PathBuf,
-    timing: PathBuf,
-}
-
-impl OutputFiles {
-    fn of(dir: &Path) -> Self {
-        OutputFiles {
-            stats: dir.join("dram_stats.json"),
-            config: dir.join("dram_config.resolved.toml"),
-            timing: dir.join("timing.json"),
-        }
-    }
-}
-
 fn write_outputs(
-    mut set: OutputSet,
-    files: &OutputFiles,
+    set: OutputSet,
+    files: &StatsOutputs,
     config: &DramConfig,
     report: &Report,
     run: RunInfo,
@@ -338,18 +318,9 @@ fn write_outputs(
         config,
         report,
     };
-    let json = serde_json::to_string_pretty(&file).context("serialising dram_stats.json")?;
-    set.write(&files.stats, json.as_bytes())?;
     let toml = format!(
         "# rtsim resolved DRAM configuration: `rtsim dram --config THIS_FILE` repeats the run.\n{}",
         rtsim_config::to_toml_string(config)?
     );
-    set.write(&files.config, toml.as_bytes())?;
-    set.write(
-        &files.timing,
-        serde_json::to_string_pretty(timing)?.as_bytes(),
-    )?;
-    set.commit()?;
-    println!("  wrote {}", files.stats.display());
-    Ok(())
+    files.write(set, &file, &toml, timing)
 }

@@ -146,3 +146,63 @@ pub(crate) fn warn_if_black(srgb: &[u8], kind: rtsim_trace::WorkloadKind, r: &Re
         l.x, l.y, l.z
     );
 }
+
+/// The three files of a component command (`rtsim dram`, `rtsim cache`) in its `--out`
+/// directory: deterministic stats, the resolved config that repeats the run, and the
+/// host-dependent `timing.json`.
+pub(crate) struct StatsOutputs {
+    pub(crate) stats: PathBuf,
+    config: PathBuf,
+    timing: PathBuf,
+}
+
+impl StatsOutputs {
+    /// Plan the files `stats` and `config` (names) and `timing.json` in `out`, with the run's
+    /// inputs, and prepare them: the pre-flight check, before any work.
+    pub(crate) fn prepare(
+        out: &Path,
+        stats: &str,
+        config: &str,
+        inputs: &[(&str, Option<&Path>)],
+    ) -> Result<(Self, OutputSet)> {
+        let files = StatsOutputs {
+            stats: out.join(stats),
+            config: out.join(config),
+            timing: out.join("timing.json"),
+        };
+        let mut plan = OutputPlan::new();
+        plan.dir(out, "--out");
+        for f in [&files.stats, &files.config, &files.timing] {
+            plan.file(f);
+        }
+        for (what, path) in inputs {
+            if let Some(p) = path {
+                plan.input(what, p);
+            }
+        }
+        let set = plan.prepare()?;
+        Ok((files, set))
+    }
+
+    /// Write the three files and commit them as one set.
+    pub(crate) fn write(
+        &self,
+        mut set: OutputSet,
+        stats: &impl serde::Serialize,
+        config_toml: &str,
+        timing: &impl serde::Serialize,
+    ) -> Result<()> {
+        let name = self.stats.file_name().unwrap_or_default().to_string_lossy();
+        let json =
+            serde_json::to_string_pretty(stats).with_context(|| format!("serialising {name}"))?;
+        set.write(&self.stats, json.as_bytes())?;
+        set.write(&self.config, config_toml.as_bytes())?;
+        set.write(
+            &self.timing,
+            serde_json::to_string_pretty(timing)?.as_bytes(),
+        )?;
+        set.commit()?;
+        println!("  wrote {}", self.stats.display());
+        Ok(())
+    }
+}

@@ -76,6 +76,34 @@ impl ConfigError {
             message: message.to_string(),
         }
     }
+    /// This error with its key under `prefix` (a section's validation names keys relative
+    /// to the section); a key already under it, or an empty prefix, is left as it is.
+    pub fn under(self, prefix: &str) -> ConfigError {
+        let p = |key: String| {
+            if prefix.is_empty() || key.starts_with(&format!("{prefix}.")) {
+                key
+            } else {
+                format!("{prefix}.{key}")
+            }
+        };
+        match self {
+            ConfigError::Key { key, message } => ConfigError::Key {
+                key: p(key),
+                message,
+            },
+            ConfigError::Range {
+                key,
+                value,
+                allowed,
+            } => ConfigError::Range {
+                key: p(key),
+                value,
+                allowed,
+            },
+            other => other,
+        }
+    }
+
     /// The key a `Key` or `Range` error is about.
     pub fn key_path(&self) -> Option<&str> {
         match self {
@@ -355,37 +383,8 @@ impl Layers {
             None => &empty,
         };
         let value: T = deserialize_table(table, prefix).map_err(|e| self.locate(e))?;
-        value
-            .validate()
-            .map_err(|e| self.locate(prefixed_key(prefix, e)))?;
+        value.validate().map_err(|e| self.locate(e.under(prefix)))?;
         Ok(value)
-    }
-}
-
-/// `e` with its key under `prefix` (a section's validation names keys relative to it).
-fn prefixed_key(prefix: &str, e: ConfigError) -> ConfigError {
-    let p = |key: String| {
-        if prefix.is_empty() || key.starts_with(&format!("{prefix}.")) {
-            key
-        } else {
-            format!("{prefix}.{key}")
-        }
-    };
-    match e {
-        ConfigError::Key { key, message } => ConfigError::Key {
-            key: p(key),
-            message,
-        },
-        ConfigError::Range {
-            key,
-            value,
-            allowed,
-        } => ConfigError::Range {
-            key: p(key),
-            value,
-            allowed,
-        },
-        other => other,
     }
 }
 
