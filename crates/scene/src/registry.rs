@@ -173,7 +173,15 @@ pub fn load_scene(req: &SceneRequest<'_>) -> Result<Scene, SceneError> {
         }
         SceneSource::File(path) => {
             // Checked before opening: a FIFO would wait for a writer, a directory has no text.
-            let meta = std::fs::metadata(&path).map_err(|e| rtsim_core::FileError::io(&path, e))?;
+            let meta = std::fs::metadata(&path).map_err(|e| {
+                let e = match e.kind() {
+                    std::io::ErrorKind::NotFound => {
+                        std::io::Error::new(e.kind(), "no such scene file")
+                    }
+                    _ => e,
+                };
+                rtsim_core::FileError::io(&path, e)
+            })?;
             if !meta.is_file() {
                 let kind = rtsim_core::error::describe_file_type(&meta.file_type());
                 return Err(rtsim_core::FileError::io(
