@@ -51,10 +51,10 @@ pub struct SceneArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Run seed (procedural scenes, sampling).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub seed: Option<u64>,
     /// Worker threads (0 = all cores).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::usize_arg, allow_negative_numbers = true)]
     pub threads: Option<usize>,
 }
 
@@ -65,12 +65,12 @@ pub struct RenderArgs {
     /// Workload: primary, ao, diffuse, path, specular.
     #[arg(long)]
     pub workload: Option<String>,
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub width: Option<u32>,
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Samples per pixel.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub spp: Option<u32>,
     /// Output directory.
     #[arg(long, value_name = "DIR")]
@@ -123,13 +123,60 @@ pub struct BenchArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
     /// Rays per measurement (taken from the workload at a resolution that yields them).
-    #[arg(long, default_value_t = 1_000_000)]
+    #[arg(long, default_value_t = 1_000_000, value_parser = crate::cli::usize_arg, allow_negative_numbers = true)]
     pub rays: usize,
     /// Also write the measured rays as DIR/{primary,ao,diffuse}.bin (rays.bin format), e.g.
     /// to time another ray caster on the same rays.
     #[arg(long, value_name = "DIR")]
     pub save_rays: Option<PathBuf>,
     /// Repetitions of each measurement; the fastest is reported.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub repeat: u32,
+}
+
+/// A whole number in `0..=max` from the command line; a negative or oversized value is an
+/// error stating the allowed range (clap would otherwise take `-1` for an unknown flag).
+fn unsigned(s: &str, max: u64) -> Result<u64, String> {
+    let range = format!("allowed 0..={max}");
+    let t = s.trim();
+    if t.starts_with('-') && t.len() > 1 {
+        return Err(format!("must not be negative ({range})"));
+    }
+    match t.parse::<u128>() {
+        Ok(v) if v <= u128::from(max) => Ok(v as u64),
+        Ok(_) => Err(format!("too large ({range})")),
+        Err(_) => Err(format!("not a whole number ({range})")),
+    }
+}
+
+/// Value parser for `u32` flags.
+pub fn u32_arg(s: &str) -> Result<u32, String> {
+    unsigned(s, u32::MAX.into()).map(|v| v as u32)
+}
+
+/// Value parser for `u64` flags.
+pub fn u64_arg(s: &str) -> Result<u64, String> {
+    unsigned(s, u64::MAX)
+}
+
+/// Value parser for `usize` flags.
+pub fn usize_arg(s: &str) -> Result<usize, String> {
+    unsigned(s, usize::MAX as u64).map(|v| v as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unsigned_flags_state_the_range() {
+        assert_eq!(u32_arg("12"), Ok(12));
+        assert!(u32_arg("-1").unwrap_err().contains("must not be negative"));
+        assert!(
+            u32_arg("4294967296")
+                .unwrap_err()
+                .contains("0..=4294967295")
+        );
+        assert!(u64_arg("x").unwrap_err().contains("not a whole number"));
+    }
 }

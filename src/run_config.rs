@@ -30,7 +30,13 @@ pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
         i.flag("seed", seed);
     }
     if let Some(t) = args.threads {
-        i.flag("threads", t.min(i64::MAX as usize) as i64);
+        let max = rtsim_run::MAX_THREADS;
+        if t > max {
+            return Err(
+                ConfigError::range("--threads", t, format!("0..={max} (0 = all cores)")).into(),
+            );
+        }
+        i.flag("threads", t as i64);
     }
     for (k, v) in flags {
         i.flag(k, v.clone());
@@ -42,6 +48,6 @@ pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
 pub fn resolve(args: &SceneArgs, flags: &[Flag]) -> Result<Resolved> {
     let inputs = inputs(args, flags)?;
     Ok(rtsim_run::resolve(&inputs, &mut |line| {
-        eprintln!("note: {line}")
+        eprintln!("note: {}", rtsim_core::text::escape_controls(line))
     })?)
 }

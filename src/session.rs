@@ -32,9 +32,15 @@ pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
         .context("creating the thread pool")
 }
 
-/// Resolve, load, build.
+/// Resolve, load, build (for commands without output files to check first).
+#[allow(dead_code)]
 pub fn open(args: &SceneArgs, flags: &[Flag], want_fast: bool) -> Result<Session> {
-    let resolved = run_config::resolve(args, flags)?;
+    build(run_config::resolve(args, flags)?, want_fast)
+}
+
+/// Build the BVH, memory image and tracer of a resolved run (commands that write files plan
+/// their outputs between resolving and this, so a bad `--out` fails before the work).
+pub fn build(resolved: Resolved, want_fast: bool) -> Result<Session> {
     let scene = &resolved.scene;
     let pool = thread_pool(resolved.config.threads)?;
     let start = Instant::now();

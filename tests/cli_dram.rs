@@ -376,11 +376,10 @@ fn bench_reports_requests_per_second_and_runs_repeat() {
     let out = ok(&args("a"), d);
     assert!(out.contains("M requests/s"), "{out}");
     ok(&args("b"), d);
-    assert_eq!(stats(&d.join("a"))["report"], stats(&d.join("b"))["report"]);
-    assert!(
-        stats(&d.join("a"))["run"]["requests_per_second"]
-            .as_f64()
-            .unwrap()
-            > 0.0
-    );
+    // dram_stats.json is deterministic: host timings live in timing.json.
+    let bytes = |r: &str| std::fs::read(d.join(r).join("dram_stats.json")).unwrap();
+    assert_eq!(bytes("a"), bytes("b"));
+    let timing: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("a/timing.json")).unwrap()).unwrap();
+    assert!(timing["requests_per_second"].as_f64().unwrap() > 0.0);
 }

@@ -267,13 +267,28 @@ fn truncated_binary_ply_names_the_element_and_offset() {
     for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] {
         b.extend_from_slice(&v.to_le_bytes());
     }
+    // Too short for the declared vertices: refused from the header, before reading.
+    let (dir, p) = bad_file("short.ply", &b);
+    let (o, _) = export(dir.path(), p.to_str().unwrap(), &[]);
+    assert_one_line_error(
+        &o,
+        &[
+            &p.display().to_string(),
+            "declares 3 `vertex` element(s)",
+            "32 bytes after the header",
+        ],
+    );
+    // Cut inside the face list, past what the header check can see.
+    b.extend_from_slice(&0.0f32.to_le_bytes());
+    b.push(3);
+    b.extend_from_slice(&0i32.to_le_bytes());
     let (dir, p) = bad_file("cut.ply", &b);
     let (o, _) = export(dir.path(), p.to_str().unwrap(), &[]);
     assert_one_line_error(
         &o,
         &[
             &p.display().to_string(),
-            "element `vertex` #2",
+            "element `face` #0",
             "byte offset",
             "truncated",
         ],

@@ -9,17 +9,37 @@ use crate::run_config;
 use crate::session::{fast_path, thread_pool};
 use anyhow::{Context, Result};
 use rayon::prelude::*;
+use rtsim_config::ConfigError;
 use rtsim_core::Ray;
+use rtsim_core::output::OutputPlan;
 use rtsim_trace::fast::FastBvh;
-use rtsim_trace::query::write_rays;
+use rtsim_trace::query::encode_rays;
 use rtsim_trace::{Integrator, Query, RayCounters, Tracer, WorkloadKind};
 use std::time::Instant;
 
 pub fn run(args: BenchArgs) -> Result<()> {
-    if args.rays == 0 || args.repeat == 0 {
-        anyhow::bail!("--rays and --repeat must be at least 1");
+    if !(1..=MAX_RAYS).contains(&args.rays) {
+        return Err(ConfigError::range("--rays", args.rays, format!("1..={MAX_RAYS}")).into());
+    }
+    if !(1..=MAX_REPEAT).contains(&args.repeat) {
+        return Err(
+            ConfigError::range("--repeat", args.repeat, format!("1..={MAX_REPEAT}")).into(),
+        );
     }
     let resolved = run_config::resolve(&args.scene, &[])?;
+    // `--save-rays`: planned and checked before any measurement.
+    let mut saved = match &args.save_rays {
+        Some(dir) => {
+            let mut plan = OutputPlan::new();
+            plan.dir(dir, "--save-rays");
+            for kind in KINDS {
+                plan.file(dir.join(format!("{}.bin", name(kind))));
+            }
+            super::scene_inputs(&mut plan, &args.scene, &resolved);
+            Some(plan.prepare()?)
+        }
+        None => None,
+    };
     let scene = &resolved.scene;
     let cfg = &resolved.config;
     let one = thread_pool(1)?;
@@ -67,15 +87,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "fast 1t",
         format!("fast {cores}t")
     );
-    for kind in [
-        WorkloadKind::Primary,
-        WorkloadKind::Ao,
-        WorkloadKind::Diffuse,
-    ] {
-        let rays = all.install(|| generate(&resolved, &tracer, kind, args.rays));
-        if let Some(dir) = &args.save_rays {
+    for kind in KINDS {
+        let rays = all.install(|| generate(&resolved, &tracer, kind, args.rays))?;
+        if let (Some(set), Some(dir)) = (&mut saved, &args.save_rays) {
             let p = dir.join(format!("{}.bin", name(kind)));
-            write_rays(&p, &rays).with_context(|| format!("writing {}", p.display()))?;
+            let mut f = set.create(&p)?;
+            encode_rays(&mut f, &rays).with_context(|| format!("writing {}", p.display()))?;
+            set.finish(f)?;
         }
         let any = kind == WorkloadKind::Ao;
         let measure = |pool: &rayon::ThreadPool, mode: Mode| {
@@ -120,8 +138,23 @@ pub fn run(args: BenchArgs) -> Result<()> {
             fnn
         );
     }
+    if let Some(set) = saved {
+        set.commit()?;
+    }
     Ok(())
 }
+
+/// Most rays per measurement (assumed: 2^24, 512 MB of rays — the same again while they are
+/// generated; a larger count measures nothing new and can exhaust memory).
+const MAX_RAYS: usize = 1 << 24;
+/// Most repetitions of a measurement.
+const MAX_REPEAT: u32 = 1000;
+/// The ray kinds measured, in order.
+const KINDS: [WorkloadKind; 3] = [
+    WorkloadKind::Primary,
+    WorkloadKind::Ao,
+    WorkloadKind::Diffuse,
+];
 
 fn name(kind: WorkloadKind) -> &'static str {
     match kind {
@@ -140,7 +173,7 @@ fn generate(
     tracer: &Tracer,
     kind: WorkloadKind,
     count: usize,
-) -> Vec<Ray> {
+) -> Result<Vec<Ray>> {
     let mut params = crate::commands::render::workload_params(r);
     let mut w = r.config.workload.clone();
     w.kind = kind;
@@ -166,11 +199,19 @@ fn generate(
                 v
             })
             .collect();
-        let mut rays: Vec<Ray> = rows.into_iter().flatten().collect();
+        let total: usize = rows.iter().map(Vec::len).sum();
+        let mut rays: Vec<Ray> = Vec::new();
+        rays.try_reserve_exact(total).map_err(|_| {
+            anyhow::anyhow!(
+                "cannot allocate {total} rays ({} MB) for {kind:?} rays: lower --rays",
+                (total * std::mem::size_of::<Ray>()) >> 20
+            )
+        })?;
+        rays.extend(rows.into_iter().flatten());
         // Secondary rays exist only where camera rays hit: grow the image if too few.
         if rays.len() >= count || pixels > 64.0 * count as f64 {
             rays.truncate(count);
-            return rays;
+            return Ok(rays);
         }
         pixels *= 1.0 + count as f64 / rays.len().max(1) as f64;
     }

@@ -7,6 +7,7 @@
 //! Writes `DIR/cache_stats.json` and `DIR/cache_config.resolved.toml` atomically. Trace format,
 //! keys and model: `docs/CACHES.md`.
 
+use super::StatsOutputs;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use rtsim_cache::trace::{
@@ -17,7 +18,7 @@ use rtsim_cache::{
     CacheConfig, CacheStats, FunctionalHierarchy, Hierarchy, MemoryCounts, Parent, Topology,
 };
 use rtsim_config::{ConfigError, Layers};
-use rtsim_core::output::write_atomic;
+use rtsim_core::output::OutputSet;
 use rtsim_dram::config::UserLayers;
 use rtsim_dram::{Dram, DramConfig, Report, Requester};
 use serde::Serialize;
@@ -65,6 +66,11 @@ struct RunInfo {
     refusals: u64,
     /// Timed: the cycle the last access's data was ready.
     end_cycle: u64,
+}
+
+/// `timing.json`: host-dependent figures, kept out of the deterministic `cache_stats.json`.
+#[derive(Debug, Serialize)]
+struct CacheTiming {
     wall_seconds: f64,
     accesses_per_second: f64,
 }
@@ -124,10 +130,7 @@ fn resolve(args: &CacheArgs) -> Result<(CacheConfig, Vec<String>)> {
     layers.merge_value(&CacheConfig::default(), "built-in defaults (TRaX)")?;
     let mut dram_sets = Vec::new();
     if let Some(path) = &args.config {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = rtsim_config::read_config_file(path)?;
         let origin = path.display().to_string();
         let mut table = rtsim_config::parse_toml(&text, &origin)?;
         if let Some(d) = table.remove("dram") {
@@ -175,6 +178,16 @@ pub fn run(args: CacheArgs) -> Result<()> {
     };
     let (config, dram_sets) = resolve(&args)?;
     let topology = Topology::from_config(&config)?;
+    // Pre-flight: the outputs are checked and staged before the replay.
+    let (files, outputs) = StatsOutputs::prepare(
+        &args.out,
+        "cache_stats.json",
+        "cache_config.resolved.toml",
+        &[
+            ("--trace", Some(&args.trace)),
+            ("--config", args.config.as_deref()),
+        ],
+    )?;
     let bar = crate::progress::bar(0, "accesses");
     let start = Instant::now();
     let mut dram_out = None;
@@ -239,6 +252,12 @@ pub fn run(args: CacheArgs) -> Result<()> {
     };
     bar.finish_and_clear();
     let wall = start.elapsed().as_secs_f64();
+    if summary.accesses == 0 {
+        bail!(
+            "{}: the trace has no accesses (only blank or comment lines): nothing to replay",
+            args.trace.display()
+        );
+    }
 
     let caches: Vec<CacheEntry> = topology
         .nodes()
@@ -354,8 +373,6 @@ pub fn run(args: CacheArgs) -> Result<()> {
             stall_cycles: summary.stall_cycles,
             refusals: summary.refusals,
             end_cycle: summary.end_cycle,
-            wall_seconds: wall,
-            accesses_per_second: rate,
         },
         config: &config,
         levels,
@@ -364,18 +381,30 @@ pub fn run(args: CacheArgs) -> Result<()> {
         dram: dram_out.as_ref().map(|d| &d.0),
         dram_config: dram_out.as_ref().map(|d| &d.1),
     };
-    write_outputs(&args.out, &file, dram_out.as_ref().map(|d| &d.1))
+    let timing = CacheTiming {
+        wall_seconds: wall,
+        accesses_per_second: rate,
+    };
+    write_outputs(
+        outputs,
+        &files,
+        &file,
+        &timing,
+        dram_out.as_ref().map(|d| &d.1),
+    )
 }
 
 fn replay_error(e: ReplayError) -> anyhow::Error {
     anyhow::Error::new(e)
 }
 
-fn write_outputs(dir: &Path, file: &StatsFile<'_>, dram: Option<&DramConfig>) -> Result<()> {
-    let json = serde_json::to_string_pretty(file).context("serialising cache_stats.json")?;
-    let stats = dir.join("cache_stats.json");
-    write_atomic(&stats, json.as_bytes())
-        .with_context(|| format!("writing {}", stats.display()))?;
+fn write_outputs(
+    set: OutputSet,
+    files: &StatsOutputs,
+    file: &StatsFile<'_>,
+    timing: &CacheTiming,
+    dram: Option<&DramConfig>,
+) -> Result<()> {
     let mut toml = format!(
         "# rtsim resolved cache configuration: `rtsim cache --config THIS_FILE` repeats the run.\n{}",
         rtsim_config::to_toml_string(file.config)?
@@ -389,9 +418,5 @@ fn write_outputs(dir: &Path, file: &StatsFile<'_>, dram: Option<&DramConfig>) ->
         toml.push('\n');
         toml.push_str(&rtsim_config::to_toml_string(&t)?);
     }
-    let resolved = dir.join("cache_config.resolved.toml");
-    write_atomic(&resolved, toml.as_bytes())
-        .with_context(|| format!("writing {}", resolved.display()))?;
-    println!("  wrote {}", stats.display());
-    Ok(())
+    files.write(set, file, &toml, timing)
 }

@@ -4,10 +4,11 @@
 //! relative to the DRAM tree, optionally prefixed `dram.`). Prints a summary table and writes
 //! `DIR/dram_stats.json` (and the resolved configuration) atomically. See `docs/DRAM.md`.
 
-use anyhow::{Context, Result, bail};
+use super::StatsOutputs;
+use anyhow::{Result, bail};
 use clap::Args;
 use rtsim_config::ConfigError;
-use rtsim_core::output::write_atomic;
+use rtsim_core::output::OutputSet;
 use rtsim_dram::config::{PRESETS, UserLayers};
 use rtsim_dram::trace::{Pattern, Synthetic, TraceError, TraceFormat, TraceReader};
 use rtsim_dram::{Dram, DramConfig, DriveOptions, DriveSummary, Report, Requester, drive};
@@ -35,23 +36,23 @@ pub struct DramArgs {
     #[arg(long, value_name = "PATTERN")]
     pub synthetic: Option<String>,
     /// Synthetic requests to generate.
-    #[arg(long, default_value_t = 1_000_000)]
+    #[arg(long, default_value_t = 1_000_000, value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub requests: u64,
     /// Fraction of synthetic requests that are reads (0..=1).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub read_ratio: f64,
     /// Stride in bytes of `--synthetic strided` (default: one row of one channel).
-    #[arg(long, value_name = "BYTES")]
+    #[arg(long, value_name = "BYTES", value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub stride: Option<u64>,
     /// Requester cycles between synthetic requests (0: as fast as the queues accept them).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub interval: u64,
     /// Seed of the synthetic generator.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub seed: u64,
     /// USIMM traces: at most this many reads outstanding (default
     /// `trace.usimm_max_outstanding_reads`).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub max_outstanding: Option<u32>,
     /// TOML file merged over the preset (a DRAM tree, or a file with a [dram] table).
     #[arg(long, value_name = "FILE")]
@@ -85,6 +86,11 @@ struct RunInfo {
     /// Requester cycle of the last completion.
     end_cycle: u64,
     max_outstanding_reads: Option<u32>,
+}
+
+/// `timing.json`: host-dependent figures, kept out of the deterministic `dram_stats.json`.
+#[derive(Debug, Serialize)]
+struct DramTiming {
     wall_seconds: f64,
     requests_per_second: f64,
 }
@@ -148,6 +154,9 @@ pub fn run(args: DramArgs) -> Result<()> {
             ConfigError::range("--interval", args.interval, format!("0..={max_gap}")).into(),
         );
     }
+    if args.synthetic.is_some() && args.requests == 0 {
+        return Err(ConfigError::range("--requests", 0, format!("1..={}", u64::MAX)).into());
+    }
     let mut config = rtsim_dram::config::resolve(&UserLayers {
         preset: args.preset.as_deref(),
         file: args.config.as_deref(),
@@ -171,6 +180,16 @@ pub fn run(args: DramArgs) -> Result<()> {
     let opts = DriveOptions {
         max_outstanding_reads: max_outstanding,
     };
+    // Pre-flight: the outputs are checked and staged before the run.
+    let (files, outputs) = StatsOutputs::prepare(
+        &args.out,
+        "dram_stats.json",
+        "dram_config.resolved.toml",
+        &[
+            ("--trace", args.trace.as_deref()),
+            ("--config", args.config.as_deref()),
+        ],
+    )?;
     let start = Instant::now();
     let (summary, info_source, pattern) = if let Some(path) = &args.trace {
         (
@@ -203,6 +222,12 @@ pub fn run(args: DramArgs) -> Result<()> {
         )
     };
     let wall = start.elapsed().as_secs_f64();
+    if summary.requests == 0 {
+        bail!(
+            "{}: the trace has no requests (only blank or comment lines): nothing to simulate",
+            args.trace.as_deref().unwrap_or(Path::new("-")).display()
+        );
+    }
     let report = dram.report(summary.end_cycle);
     let violations = dram.violations();
 
@@ -236,10 +261,12 @@ pub fn run(args: DramArgs) -> Result<()> {
         stall_cycles: summary.stall_cycles,
         end_cycle: summary.end_cycle,
         max_outstanding_reads: max_outstanding,
+    };
+    let timing = DramTiming {
         wall_seconds: wall,
         requests_per_second: rate,
     };
-    write_outputs(&args.out, &config, &report, info)?;
+    write_outputs(outputs, &files, &config, &report, info, &timing)?;
     if !violations.is_empty() {
         bail!(
             "checking mode found {} timing violation(s), first: {}",
@@ -278,23 +305,22 @@ fn run_trace(
     Ok(s?)
 }
 
-fn write_outputs(dir: &Path, config: &DramConfig, report: &Report, run: RunInfo) -> Result<()> {
+fn write_outputs(
+    set: OutputSet,
+    files: &StatsOutputs,
+    config: &DramConfig,
+    report: &Report,
+    run: RunInfo,
+    timing: &DramTiming,
+) -> Result<()> {
     let file = StatsFile {
         run,
         config,
         report,
     };
-    let json = serde_json::to_string_pretty(&file).context("serialising dram_stats.json")?;
-    let stats = dir.join("dram_stats.json");
-    write_atomic(&stats, json.as_bytes())
-        .with_context(|| format!("writing {}", stats.display()))?;
     let toml = format!(
         "# rtsim resolved DRAM configuration: `rtsim dram --config THIS_FILE` repeats the run.\n{}",
         rtsim_config::to_toml_string(config)?
     );
-    let resolved = dir.join("dram_config.resolved.toml");
-    write_atomic(&resolved, toml.as_bytes())
-        .with_context(|| format!("writing {}", resolved.display()))?;
-    println!("  wrote {}", stats.display());
-    Ok(())
+    files.write(set, &file, &toml, timing)
 }

@@ -11,8 +11,12 @@ pub mod simulate;
 pub mod sweep;
 pub mod trace;
 
-use crate::cli::{Cli, Command};
-use anyhow::Result;
+use crate::cli::{Cli, Command, SceneArgs};
+use crate::run_config::Resolved;
+use anyhow::{Context, Result};
+use rtsim_core::output::{OutputPlan, OutputSet};
+use rtsim_trace::film::png_bytes;
+use std::path::{Path, PathBuf};
 
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
@@ -40,4 +44,167 @@ pub(crate) fn thousands(n: u64) -> String {
         out.push(c);
     }
     out
+}
+
+/// Inputs of a scene run that no output may overwrite: the config file, a scene given as a
+/// path, and every file the scene was read from.
+pub(crate) fn scene_inputs(plan: &mut OutputPlan, args: &SceneArgs, r: &Resolved) {
+    if let Some(c) = &args.config {
+        plan.input("--config", c);
+    }
+    let named = Path::new(&r.config.scene.name);
+    if named.is_file() {
+        plan.input("--scene", named);
+    }
+    for f in &r.scene.files {
+        plan.input("scene file", f);
+    }
+}
+
+/// The files every frame command (`render`, `simulate`) writes into `output.dir`, prepared
+/// as one set before the work.
+pub(crate) struct FrameOutputs {
+    set: OutputSet,
+    png: PathBuf,
+    heatmap: Option<PathBuf>,
+    stats: PathBuf,
+    timing: PathBuf,
+    config: PathBuf,
+}
+
+impl FrameOutputs {
+    /// Plan and prepare the set (the pre-flight check: fails before any work).
+    pub(crate) fn prepare(args: &SceneArgs, r: &Resolved) -> Result<FrameOutputs> {
+        let dir = r.config.output.dir.clone();
+        let heatmap = dir.join("heatmap.png");
+        let heatmap = r.config.output.heatmap.then_some(heatmap);
+        let (png, stats, timing, config) = (
+            dir.join("render.png"),
+            dir.join("stats.json"),
+            dir.join("timing.json"),
+            dir.join("config.resolved.toml"),
+        );
+        let mut plan = OutputPlan::new();
+        plan.dir(&dir, "the output directory (--out, output.dir)");
+        for f in [&png, &stats, &timing, &config] {
+            plan.file(f);
+        }
+        match &heatmap {
+            Some(h) => plan.file(h),
+            // An older run's heat map must not sit beside this run's image.
+            None => plan.stale(dir.join("heatmap.png")),
+        };
+        scene_inputs(&mut plan, args, r);
+        Ok(FrameOutputs {
+            set: plan.prepare()?,
+            png,
+            heatmap,
+            stats,
+            timing,
+            config,
+        })
+    }
+
+    /// Write the image, heat map, stats, timing and resolved config, and commit them together.
+    pub(crate) fn write(
+        mut self,
+        size: (u32, u32),
+        image: &[u8],
+        heat: &[u8],
+        stats_json: &str,
+        timing_json: &str,
+        config_toml: &str,
+    ) -> Result<()> {
+        let (w, h) = size;
+        let png = |rgb: &[u8], path: &Path| {
+            png_bytes(w, h, rgb).with_context(|| format!("encoding {}", path.display()))
+        };
+        self.set.write(&self.png, &png(image, &self.png)?)?;
+        if let Some(p) = &self.heatmap {
+            self.set.write(p, &png(heat, p)?)?;
+        }
+        self.set.write(&self.stats, stats_json.as_bytes())?;
+        self.set.write(&self.timing, timing_json.as_bytes())?;
+        self.set.write(&self.config, config_toml.as_bytes())?;
+        Ok(self.set.commit()?)
+    }
+
+    pub(crate) fn png(&self) -> &Path {
+        &self.png
+    }
+}
+
+/// Say so when a frame came out entirely black although its workload is lit: a light inside
+/// closed geometry, or a camera that sees nothing, gives that without any error.
+pub(crate) fn warn_if_black(srgb: &[u8], kind: rtsim_trace::WorkloadKind, r: &Resolved) {
+    if kind == rtsim_trace::WorkloadKind::Ao || srgb.iter().any(|&b| b != 0) {
+        return;
+    }
+    let l = r.scene.light.position;
+    eprintln!(
+        "warning: the image is entirely black: no light reaches a surface the camera sees \
+         (is the light at ({}, {}, {}) inside closed geometry, or does the camera look at \
+         nothing?)",
+        l.x, l.y, l.z
+    );
+}
+
+/// The three files of a component command (`rtsim dram`, `rtsim cache`) in its `--out`
+/// directory: deterministic stats, the resolved config that repeats the run, and the
+/// host-dependent `timing.json`.
+pub(crate) struct StatsOutputs {
+    pub(crate) stats: PathBuf,
+    config: PathBuf,
+    timing: PathBuf,
+}
+
+impl StatsOutputs {
+    /// Plan the files `stats` and `config` (names) and `timing.json` in `out`, with the run's
+    /// inputs, and prepare them: the pre-flight check, before any work.
+    pub(crate) fn prepare(
+        out: &Path,
+        stats: &str,
+        config: &str,
+        inputs: &[(&str, Option<&Path>)],
+    ) -> Result<(Self, OutputSet)> {
+        let files = StatsOutputs {
+            stats: out.join(stats),
+            config: out.join(config),
+            timing: out.join("timing.json"),
+        };
+        let mut plan = OutputPlan::new();
+        plan.dir(out, "--out");
+        for f in [&files.stats, &files.config, &files.timing] {
+            plan.file(f);
+        }
+        for (what, path) in inputs {
+            if let Some(p) = path {
+                plan.input(what, p);
+            }
+        }
+        let set = plan.prepare()?;
+        Ok((files, set))
+    }
+
+    /// Write the three files and commit them as one set.
+    pub(crate) fn write(
+        &self,
+        mut set: OutputSet,
+        stats: &impl serde::Serialize,
+        config_toml: &str,
+        timing: &impl serde::Serialize,
+    ) -> Result<()> {
+        let name = self.stats.file_name().unwrap_or_default().to_string_lossy();
+        let json =
+            serde_json::to_string_pretty(stats).with_context(|| format!("serialising {name}"))?;
+        set.write(&self.stats, json.as_bytes())?;
+        set.write(&self.config, config_toml.as_bytes())?;
+        set.write(
+            &self.timing,
+            serde_json::to_string_pretty(timing)?.as_bytes(),
+        )?;
+        set.commit()?;
+        println!("  wrote {}", self.stats.display());
+        Ok(())
+    }
 }

@@ -6,10 +6,8 @@ use crate::cli::RenderArgs;
 use crate::progress;
 use crate::run_config::{self, Flag};
 use crate::session;
-use anyhow::{Context, Result};
-use rtsim_core::output::write_atomic;
+use anyhow::Result;
 use rtsim_run::facts::{BvhFacts, RayFacts, SceneFacts, WorkloadFacts};
-use rtsim_trace::film::write_png;
 use rtsim_trace::{Integrator, ToneMap, WorkloadKind, WorkloadParams, render_frame};
 use serde::Serialize;
 use std::time::Instant;
@@ -32,7 +30,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if let Some(o) = &args.out {
         flags.push(("output.dir", Value::String(o.display().to_string())));
     }
-    let s = session::open(&args.scene, &flags, false)?;
+    let resolved = run_config::resolve(&args.scene, &flags)?;
+    // Every output is checked (and staged) before the BVH build and the render.
+    let outputs = super::FrameOutputs::prepare(&args.scene, &resolved)?;
+    let s = session::build(resolved, false)?;
     let cfg = &s.resolved.config;
     let scene = &s.resolved.scene;
     let params = workload_params(&s.resolved);
@@ -53,21 +54,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let render_seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
-    let out = &cfg.output.dir;
     let tone = match (cfg.output.exposure, params.kind) {
         (Some(exposure), _) => ToneMap::Linear { exposure },
         (None, WorkloadKind::Ao) => ToneMap::Linear { exposure: 1.0 },
         (None, _) => ToneMap::Auto,
     };
-    let png = out.join("render.png");
-    write_png(&png, frame.width, frame.height, &frame.to_srgb8(tone))
-        .with_context(|| format!("writing {}", png.display()))?;
+    let image = frame.to_srgb8(tone);
+    super::warn_if_black(&image, params.kind, &s.resolved);
     let (heat, heat_top) = frame.heatmap_rgb8();
-    if cfg.output.heatmap {
-        let p = out.join("heatmap.png");
-        write_png(&p, frame.width, frame.height, &heat)
-            .with_context(|| format!("writing {}", p.display()))?;
-    }
     let total = frame.stats.total();
     let stats = RenderStats {
         rtsim_version: env!("CARGO_PKG_VERSION"),
@@ -86,24 +80,20 @@ pub fn run(args: RenderArgs) -> Result<()> {
             nodes_visited_scale_top: heat_top,
         },
     };
-    write_atomic(
-        out.join("stats.json"),
-        serde_json::to_string_pretty(&stats)?.as_bytes(),
-    )
-    .with_context(|| format!("writing {}", out.join("stats.json").display()))?;
     let timing = RenderTiming {
         threads: s.pool.current_num_threads(),
         bvh_build_seconds: s.build_seconds,
         render_seconds,
         mrays_per_second: total.rays as f64 / render_seconds.max(1e-9) / 1e6,
     };
-    write_atomic(
-        out.join("timing.json"),
-        serde_json::to_string_pretty(&timing)?.as_bytes(),
-    )?;
-    write_atomic(
-        out.join("config.resolved.toml"),
-        rtsim_run::resolved_toml(&s.resolved, "render")?.as_bytes(),
+    let png = outputs.png().to_path_buf();
+    outputs.write(
+        (frame.width, frame.height),
+        &image,
+        &heat,
+        &serde_json::to_string_pretty(&stats)?,
+        &serde_json::to_string_pretty(&timing)?,
+        &rtsim_run::resolved_toml(&s.resolved, "render")?,
     )?;
 
     println!(

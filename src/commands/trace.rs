@@ -8,7 +8,7 @@ use crate::progress;
 use crate::session;
 use anyhow::{Context, Result};
 use rayon::prelude::*;
-use rtsim_core::output::AtomicFile;
+use rtsim_core::output::OutputPlan;
 use rtsim_trace::query::{RayReader, encode_hits, is_traceable};
 use rtsim_trace::{Hit, NO_HIT, RayCounters};
 use std::io::Write;
@@ -18,11 +18,15 @@ use std::time::{Duration, Instant};
 const CHUNK: usize = 1 << 20;
 
 pub fn run(args: TraceArgs) -> Result<()> {
-    let s = session::open(&args.scene, &[], true)?;
+    let resolved = crate::run_config::resolve(&args.scene, &[])?;
     let mut reader = RayReader::open(&args.rays)?;
     let total = reader.count();
-    let mut out = AtomicFile::create(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    let mut plan = OutputPlan::new();
+    plan.file(&args.out).input("--rays", &args.rays);
+    super::scene_inputs(&mut plan, &args.scene, &resolved);
+    let mut outputs = plan.prepare()?;
+    let s = session::build(resolved, true)?;
+    let mut out = outputs.create(&args.out)?;
     let bar = progress::bar(total, "trace");
     let tracer = &s.tracer;
     let fast = s.fast.as_ref();
@@ -65,8 +69,8 @@ pub fn run(args: TraceArgs) -> Result<()> {
             .with_context(|| format!("writing {}", args.out.display()))?;
         bar.inc(rays.len() as u64);
     }
-    out.commit()
-        .with_context(|| format!("writing {}", args.out.display()))?;
+    outputs.finish(out)?;
+    outputs.commit()?;
     bar.finish_and_clear();
     let secs = busy.as_secs_f64().max(1e-9);
     let mode = if any { "any-hit" } else { "closest-hit" };

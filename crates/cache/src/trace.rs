@@ -13,6 +13,7 @@
 
 use crate::functional::FunctionalHierarchy;
 use crate::timed::{Completion, Hierarchy, HierarchyError, Outcome, Request};
+use rtsim_core::text::{Line, echo, line_too_long, read_line_bounded, utf8};
 use rtsim_core::{MemOp, MemoryPort};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -35,9 +36,13 @@ pub struct TraceReader<R> {
     input: R,
     path: PathBuf,
     line_no: u64,
-    buf: String,
+    buf: Vec<u8>,
     next_cycle: u64,
 }
+
+/// Longest trace line accepted (assumed: 4 KiB; a real line is under 64 bytes, and a file
+/// without line breaks must fail fast rather than fill memory).
+pub const MAX_TRACE_LINE_BYTES: usize = 4096;
 
 impl<R: BufRead> TraceReader<R> {
     pub fn new(input: R, path: &Path) -> Self {
@@ -45,7 +50,7 @@ impl<R: BufRead> TraceReader<R> {
             input,
             path: path.to_path_buf(),
             line_no: 0,
-            buf: String::new(),
+            buf: Vec::new(),
             next_cycle: 0,
         }
     }
@@ -55,7 +60,8 @@ impl<R: BufRead> TraceReader<R> {
     }
 
     fn parse(&mut self) -> Result<Option<TraceAccess>, TraceError> {
-        let text = self.buf.split('#').next().unwrap_or_default().trim();
+        let text = utf8(&self.buf).map_err(|m| self.err(m))?;
+        let text = text.split('#').next().unwrap_or_default().trim();
         if text.is_empty() {
             return Ok(None);
         }
@@ -63,7 +69,7 @@ impl<R: BufRead> TraceReader<R> {
         let op = match f.next().unwrap_or_default().to_ascii_uppercase().as_str() {
             "R" | "READ" | "LOAD" => MemOp::Read,
             "W" | "WRITE" | "STORE" => MemOp::Write,
-            other => return Err(self.err(format!("expected R or W, found `{other}`"))),
+            other => return Err(self.err(format!("expected R or W, found `{}`", echo(other)))),
         };
         let a = f
             .next()
@@ -73,12 +79,12 @@ impl<R: BufRead> TraceReader<R> {
             .or_else(|| a.strip_prefix("0X"))
             .unwrap_or(a);
         let addr = u64::from_str_radix(hex, 16)
-            .map_err(|_| self.err(format!("`{a}` is not a hexadecimal address")))?;
+            .map_err(|_| self.err(format!("`{}` is not a hexadecimal address", echo(a))))?;
         let cycle = match f.next() {
             Some(c) => {
                 let c: u64 = c
                     .parse()
-                    .map_err(|_| self.err(format!("`{c}` is not a decimal cycle")))?;
+                    .map_err(|_| self.err(format!("`{}` is not a decimal cycle", echo(c))))?;
                 if c > 1 << 48 {
                     return Err(self.err(format!("cycle {c} is beyond 2^48")));
                 }
@@ -96,12 +102,13 @@ impl<R: BufRead> TraceReader<R> {
         let l1 = match f.next() {
             Some(l) => l
                 .parse()
-                .map_err(|_| self.err(format!("`{l}` is not an L1 index")))?,
+                .map_err(|_| self.err(format!("`{}` is not an L1 index", echo(l))))?,
             None => 0,
         };
         if let Some(extra) = f.next() {
             return Err(self.err(format!(
-                "unexpected `{extra}`: a line is `R|W <hex addr> [cycle [l1]]`"
+                "unexpected `{}`: a line is `R|W <hex addr> [cycle [l1]]`",
+                echo(extra)
             )));
         }
         self.next_cycle = cycle + 1;
@@ -119,17 +126,15 @@ impl<R: BufRead> Iterator for TraceReader<R> {
     fn next(&mut self) -> Option<Self::Item> {
         loop {
             self.buf.clear();
-            match self.input.read_line(&mut self.buf) {
-                Ok(0) => return None,
-                Ok(_) => {}
-                Err(source) => {
-                    return Some(Err(TraceError::Io {
-                        path: self.path.clone(),
-                        source,
-                    }));
-                }
-            }
             self.line_no += 1;
+            match read_line_bounded(&mut self.input, &mut self.buf, MAX_TRACE_LINE_BYTES) {
+                Ok(Line::Eof) => return None,
+                Ok(Line::Read(_)) => {}
+                Ok(Line::TooLong) => {
+                    return Some(Err(self.err(line_too_long(MAX_TRACE_LINE_BYTES))));
+                }
+                Err(e) => return Some(Err(self.err(format!("read error: {e}")))),
+            }
             match self.parse() {
                 Ok(None) => continue,
                 Ok(Some(a)) => return Some(Ok(a)),

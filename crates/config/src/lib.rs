@@ -33,9 +33,14 @@ pub enum ConfigError {
     },
     #[error("invalid --set `{arg}`: {message}")]
     BadSet { arg: String, message: String },
-    #[error("config key `{key}`: {message}")]
+    // Keys and values may come from input (`--set`, a file): echoed, escaped and cut.
+    #[error("config key `{}`: {message}", rtsim_core::text::echo(.key))]
     Key { key: String, message: String },
-    #[error("config key `{key}` = {value}: out of range, allowed {allowed}")]
+    #[error(
+        "config key `{}` = {}: out of range, allowed {allowed}",
+        rtsim_core::text::echo(.key),
+        rtsim_core::text::echo(.value)
+    )]
     Range {
         key: String,
         value: String,
@@ -46,6 +51,12 @@ pub enum ConfigError {
         kind: String,
         name: String,
         known: String,
+    },
+    /// An error about a key, with the layer that set it (`cfg.toml:12`, `--set a.b=1`).
+    #[error("{origin}: {source}")]
+    Located {
+        origin: String,
+        source: Box<ConfigError>,
     },
 }
 
@@ -65,11 +76,48 @@ impl ConfigError {
             message: message.to_string(),
         }
     }
+    /// This error with its key under `prefix` (a section's validation names keys relative
+    /// to the section); a key already under it, or an empty prefix, is left as it is.
+    pub fn under(self, prefix: &str) -> ConfigError {
+        let p = |key: String| {
+            if prefix.is_empty() || key.starts_with(&format!("{prefix}.")) {
+                key
+            } else {
+                format!("{prefix}.{key}")
+            }
+        };
+        match self {
+            ConfigError::Key { key, message } => ConfigError::Key {
+                key: p(key),
+                message,
+            },
+            ConfigError::Range {
+                key,
+                value,
+                allowed,
+            } => ConfigError::Range {
+                key: p(key),
+                value,
+                allowed,
+            },
+            other => other,
+        }
+    }
+
+    /// The key a `Key` or `Range` error is about.
+    pub fn key_path(&self) -> Option<&str> {
+        match self {
+            ConfigError::Key { key, .. } | ConfigError::Range { key, .. } => Some(key),
+            ConfigError::Located { source, .. } => source.key_path(),
+            _ => None,
+        }
+    }
+
     /// A name not among the known ones (presets, scenes, policies).
     pub fn unknown(kind: &str, name: &str, known: &[&str]) -> Self {
         ConfigError::Unknown {
             kind: kind.into(),
-            name: name.into(),
+            name: rtsim_core::text::echo(name),
             known: known.join(", "),
         }
     }
@@ -117,6 +165,24 @@ enum ShapeError {
 pub struct Layers {
     root: Table,
     origins: Vec<String>,
+    /// Per layer, top last: where it came from and what it set, to say which layer set a key
+    /// that turns out wrong.
+    sources: Vec<Source>,
+}
+
+/// What one layer set, for locating errors.
+#[derive(Clone, Debug)]
+enum Source {
+    /// TOML text from a file (origin is its path).
+    Text { origin: String, text: String },
+    /// One `--set` or flag assignment of a dotted key.
+    Assignment { origin: String, key: String },
+    /// A table merged under `prefix` (presets, a descriptor's `[workload]`).
+    Table {
+        origin: String,
+        prefix: String,
+        table: Table,
+    },
 }
 
 impl Layers {
@@ -166,20 +232,59 @@ impl Layers {
     pub fn merge_str(&mut self, text: &str, origin: &str) -> Result<(), ConfigError> {
         let table = parse_toml(text, origin)?;
         self.merge_table(table, origin);
+        self.sources.pop();
+        self.sources.push(Source::Text {
+            origin: origin.to_string(),
+            text: text.to_string(),
+        });
         Ok(())
     }
 
-    /// Merge a TOML file.
+    /// Merge a TOML file (at most 16 MiB of UTF-8; a bad byte is reported by line and column).
     pub fn merge_file(&mut self, path: &Path) -> Result<(), ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = read_config_file(path)?;
         self.merge_str(&text, &path.display().to_string())
+    }
+
+    /// Say which layer set the key of `e` (the topmost that did): `file:line`, `--set …`, or
+    /// a preset's name. Errors without a key, or whose key no layer set, are returned as they
+    /// are.
+    pub fn locate(&self, e: ConfigError) -> ConfigError {
+        let Some(key) = e.key_path().map(str::to_string) else {
+            return e;
+        };
+        if matches!(e, ConfigError::Located { .. }) {
+            return e;
+        }
+        for src in self.sources.iter().rev() {
+            let origin = match src {
+                Source::Text { origin, text } => {
+                    key_line(text, &key).map(|line| format!("{origin}:{line}"))
+                }
+                Source::Assignment { origin, key: k } => covers(k, &key).then(|| origin.clone()),
+                Source::Table {
+                    origin,
+                    prefix,
+                    table,
+                } => table_has(table, prefix, &key).then(|| origin.clone()),
+            };
+            if let Some(origin) = origin {
+                return ConfigError::Located {
+                    origin,
+                    source: Box::new(e),
+                };
+            }
+        }
+        e
     }
 
     /// Merge a table under a key prefix (`prefix = "dram"` puts `{a = 1}` at `dram.a`).
     pub fn merge_table_at(&mut self, prefix: &str, table: Table, origin: &str) {
+        let source = Source::Table {
+            origin: origin.to_string(),
+            prefix: prefix.to_string(),
+            table: table.clone(),
+        };
         let mut wrapped = table;
         for part in prefix.split('.').filter(|p| !p.is_empty()).rev() {
             let mut t = Table::new();
@@ -187,10 +292,17 @@ impl Layers {
             wrapped = t;
         }
         self.merge_table(wrapped, origin);
+        self.sources.pop();
+        self.sources.push(source);
     }
 
     /// Merge an already-parsed table.
     pub fn merge_table(&mut self, table: Table, origin: &str) {
+        self.sources.push(Source::Table {
+            origin: origin.to_string(),
+            prefix: String::new(),
+            table: table.clone(),
+        });
         deep_merge(&mut self.root, table);
         self.origins.push(origin.to_string());
     }
@@ -200,7 +312,7 @@ impl Layers {
     /// so `--set scene.name=sibenik` works without quotes.
     pub fn set(&mut self, assignment: &str) -> Result<(), ConfigError> {
         let bad = |m: &str| ConfigError::BadSet {
-            arg: assignment.into(),
+            arg: rtsim_core::text::echo(assignment),
             message: m.into(),
         };
         let (key, raw) = assignment
@@ -210,17 +322,26 @@ impl Layers {
         if key.is_empty() || key.split('.').any(|p| p.trim().is_empty()) {
             return Err(bad("empty key or key segment"));
         }
-        let value = parse_value(raw.trim());
+        let value = parse_value(raw.trim()).map_err(|m| bad(&m))?;
         self.set_value_inner(key, value)
             .map_err(|e| bad(&e.to_string()))?;
         self.origins.push(format!("--set {assignment}"));
+        self.sources.push(Source::Assignment {
+            origin: format!("--set {}", rtsim_core::text::echo(assignment)),
+            key: key.to_string(),
+        });
         Ok(())
     }
 
     /// Set a dotted key to a value, creating intermediate tables. Errors name the key.
     pub fn set_value(&mut self, dotted: &str, value: Value) -> Result<(), ConfigError> {
         self.set_value_inner(dotted, value)
-            .map_err(|m| ConfigError::key(dotted, m))
+            .map_err(|m| ConfigError::key(dotted, m))?;
+        self.sources.push(Source::Assignment {
+            origin: format!("the flag for `{dotted}`"),
+            key: dotted.to_string(),
+        });
+        Ok(())
     }
 
     fn set_value_inner(&mut self, dotted: &str, value: Value) -> Result<(), ShapeError> {
@@ -251,8 +372,8 @@ impl Layers {
     /// Deserialise the merged table into `T` and validate it. Unknown keys and ill-typed
     /// values are reported with their full dotted path.
     pub fn build<T: DeserializeOwned + Validate>(&self) -> Result<T, ConfigError> {
-        let value: T = deserialize_table(&self.root, "")?;
-        value.validate()?;
+        let value: T = deserialize_table(&self.root, "").map_err(|e| self.locate(e))?;
+        value.validate().map_err(|e| self.locate(e))?;
         Ok(value)
     }
 
@@ -264,10 +385,86 @@ impl Layers {
             Some(_) => return Err(ConfigError::key(prefix, "expected a section")),
             None => &empty,
         };
-        let value: T = deserialize_table(table, prefix)?;
-        value.validate()?;
+        let value: T = deserialize_table(table, prefix).map_err(|e| self.locate(e))?;
+        value.validate().map_err(|e| self.locate(e.under(prefix)))?;
         Ok(value)
     }
+}
+
+/// Whether an assignment to `set` (a dotted key) covers `key` (itself, or a key inside it).
+fn covers(set: &str, key: &str) -> bool {
+    key == set || key.starts_with(&format!("{set}.")) || set.starts_with(&format!("{key}."))
+}
+
+/// Whether `table`, merged under `prefix`, sets `key`.
+fn table_has(table: &Table, prefix: &str, key: &str) -> bool {
+    let rel = if prefix.is_empty() {
+        Some(key)
+    } else {
+        key.strip_prefix(prefix).and_then(|k| k.strip_prefix('.'))
+    };
+    let Some(rel) = rel else {
+        return false;
+    };
+    let mut cur = table;
+    let parts: Vec<&str> = rel.split('.').collect();
+    for (i, part) in parts.iter().enumerate() {
+        let part = part.split('[').next().unwrap_or(part);
+        match cur.get(part) {
+            Some(Value::Table(t)) if i + 1 < parts.len() => cur = t,
+            Some(_) => return true,
+            None => return false,
+        }
+    }
+    true
+}
+
+/// The line (1-based) of dotted `key` in TOML `text` (`a.b`, `mesh[0].scale`): the line of the
+/// key itself, or of the deepest table on the path that the text has.
+pub fn key_line(text: &str, key: &str) -> Option<u64> {
+    use toml::de::{DeTable, DeValue};
+    let root = DeTable::parse(text).ok()?;
+    let line = |at: usize| text[..at.min(text.len())].matches('\n').count() as u64 + 1;
+    let mut table: &DeTable<'_> = root.get_ref();
+    let mut found = None;
+    for part in key.split('.') {
+        let (name, index) = match part.split_once('[') {
+            Some((n, rest)) => (n, rest.trim_end_matches(']').parse::<usize>().ok()),
+            None => (part, None),
+        };
+        let (k, v) = table.get_key_value(name)?;
+        found = Some(line(k.span().start));
+        let mut value = v.get_ref();
+        if let (Some(i), DeValue::Array(a)) = (index, value) {
+            let item = a.get(i)?;
+            found = Some(line(item.span().start));
+            value = item.get_ref();
+        }
+        match value {
+            DeValue::Table(t) => table = t,
+            _ => break,
+        }
+    }
+    found
+}
+
+/// The text of a configuration file: at most 16 MiB of UTF-8, a bad byte reported by line
+/// and column, errors naming the file.
+pub fn read_config_file(path: &Path) -> Result<String, ConfigError> {
+    rtsim_core::text::read_text_file(path).map_err(|e| match e {
+        rtsim_core::FileError::Io { path, source } => ConfigError::Io {
+            path: path.display().to_string(),
+            source,
+        },
+        rtsim_core::FileError::Parse {
+            path,
+            line,
+            message,
+        } => ConfigError::Parse {
+            origin: format!("{}:{line}", path.display()),
+            message,
+        },
+    })
 }
 
 /// A family of named presets: a key of the tree names which preset of the family to merge
@@ -347,6 +544,8 @@ pub fn assemble(
     all.merge_table(upper.root.clone(), "");
     all.origins.pop();
     all.origins.extend(upper.origins.iter().cloned());
+    all.sources.pop();
+    all.sources.extend(upper.sources.iter().cloned());
     Ok(all)
 }
 
@@ -372,6 +571,10 @@ pub fn deserialize_table<T: DeserializeOwned>(
             .unwrap_or_default()
             .trim()
             .to_string();
+        // serde quotes the offending field or string raw: echo it, escaped and cut.
+        let message = ['`', '"']
+            .iter()
+            .fold(message, |m, &q| rtsim_core::text::echo_quoted(&m, q));
         ConfigError::Key { key, message }
     })
 }
@@ -390,18 +593,42 @@ pub fn parse_toml(text: &str, origin: &str) -> Result<Table, ConfigError> {
             .unwrap_or_default();
         ConfigError::Parse {
             origin: format!("{origin}{location}"),
-            message: e.message().to_string(),
+            message: toml_message(&e, text),
         }
     })
 }
 
-/// Parse the right-hand side of `--set`: a TOML value, or a bare string.
-pub fn parse_value(raw: &str) -> Value {
+/// A TOML parse error's message, naming the key where the parser only says "duplicate key".
+pub fn toml_message(e: &toml::de::Error, text: &str) -> String {
+    let msg = e.message().trim();
+    match e.span() {
+        Some(s) if msg.starts_with("duplicate key") && s.end <= text.len() => format!(
+            "duplicate key `{}` (each key may be given once per table)",
+            rtsim_core::text::echo(text[s].trim())
+        ),
+        _ => msg.to_string(),
+    }
+}
+
+/// Parse the right-hand side of `--set`: a TOML value, or a bare string. An integer beyond
+/// TOML's 64-bit signed range is an error, not the string it would otherwise become.
+pub fn parse_value(raw: &str) -> Result<Value, String> {
     match format!("v = {raw}").parse::<Table>() {
-        Ok(mut t) => t
+        Ok(mut t) => Ok(t
             .remove("v")
-            .unwrap_or_else(|| Value::String(raw.to_string())),
-        Err(_) => Value::String(raw.to_string()),
+            .unwrap_or_else(|| Value::String(raw.to_string()))),
+        Err(_) => {
+            let digits = raw.strip_prefix(['+', '-']).unwrap_or(raw).replace('_', "");
+            if !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()) {
+                return Err(format!(
+                    "{} is beyond the integers a configuration holds ({}..={})",
+                    rtsim_core::text::echo(raw),
+                    i64::MIN,
+                    i64::MAX
+                ));
+            }
+            Ok(Value::String(raw.to_string()))
+        }
     }
 }
 
@@ -509,6 +736,36 @@ mod tests {
     }
 
     #[test]
+    fn errors_name_the_layer_that_set_the_key() {
+        let mut l = Layers::new();
+        l.merge_value(&Root::default(), "defaults").unwrap();
+        l.merge_str("name = \"a\"\n\n[inner]\nbins = 1\n", "user.toml")
+            .unwrap();
+        let e = l.build::<Root>().unwrap_err().to_string();
+        assert!(e.starts_with("user.toml:4: config key `inner.bins`"), "{e}");
+        l.set("inner.bins=0").unwrap();
+        let e = l.build::<Root>().unwrap_err().to_string();
+        assert!(e.starts_with("--set inner.bins=0: "), "{e}");
+        let mut l = Layers::new();
+        l.merge_str("[inner]\nbinz = 3\n", "u.toml").unwrap();
+        let e = l.build::<Root>().unwrap_err().to_string();
+        assert!(e.starts_with("u.toml:"), "{e}");
+        assert_eq!(
+            key_line("a = 1\n[[m]]\nx = 1\n[[m]]\nx = 2\n", "m[1].x"),
+            Some(5)
+        );
+    }
+
+    #[test]
+    fn duplicate_keys_are_named() {
+        let e = Layers::new()
+            .merge_str("a = 1\nb = 2\na = 3\n", "d.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("d.toml:3:") && e.contains("`a`"), "{e}");
+    }
+
+    #[test]
     fn malformed_set_is_rejected() {
         let mut l = Layers::new();
         assert!(l.set("novalue").is_err());
@@ -519,10 +776,15 @@ mod tests {
 
     #[test]
     fn set_values_parse_as_toml() {
-        assert_eq!(parse_value("28"), Value::Integer(28));
-        assert_eq!(parse_value("inf"), Value::Float(f64::INFINITY));
-        assert_eq!(parse_value("fr-fcfs"), Value::String("fr-fcfs".into()));
-        assert_eq!(parse_value("\"x y\""), Value::String("x y".into()));
+        assert_eq!(parse_value("28").unwrap(), Value::Integer(28));
+        assert_eq!(parse_value("inf").unwrap(), Value::Float(f64::INFINITY));
+        assert_eq!(
+            parse_value("fr-fcfs").unwrap(),
+            Value::String("fr-fcfs".into())
+        );
+        assert_eq!(parse_value("\"x y\"").unwrap(), Value::String("x y".into()));
+        let e = parse_value("18446744073709551615").unwrap_err();
+        assert!(e.contains("9223372036854775807"), "{e}");
     }
 
     #[test]

@@ -14,7 +14,10 @@
 //! - [`clock`]: [`Clock`] domains and exact cycle conversion between them (1 GHz core with a
 //!   2 GHz DRAM, a 500 MHz T&I unit with 800 MHz LPDDR3, any integer frequencies).
 //! - [`error`]: [`FileError`], the located error of every input-file reader.
-//! - [`output`]: atomic file writes (temp file + rename), so a crash never leaves half a file.
+//! - [`output`]: every output file: a run's outputs as one [`output::OutputSet`], checked before
+//!   the work, staged and committed together; devices and FIFOs written through, never replaced.
+//! - [`text`]: bounded line reading, UTF-8 checks with positions, and [`text::echo`], which
+//!   escapes and cuts input quoted in messages.
 //! - [`stats`]: helpers for typed statistics (numerators and denominators kept, ratios
 //!   computed only when reporting).
 
@@ -27,6 +30,7 @@ pub mod ray;
 pub mod real;
 pub mod rng;
 pub mod stats;
+pub mod text;
 
 pub use clock::Clock;
 pub use error::FileError;

@@ -464,6 +464,8 @@ impl Validate for DramConfig {
         if self.preset.trim().is_empty() {
             return Err(ConfigError::key("preset", "must not be empty"));
         }
+        // The memory clock first: a bad one must not read as a bad requester clock.
+        check_mhz("timing.clock_mhz", self.timing.clock_mhz)?;
         check_mhz("trace.requester_clock_mhz", self.trace.requester_clock_mhz)?;
         let ratio = self.trace.requester_clock_mhz / self.timing.clock_mhz;
         if !(1.0 / 1024.0..=1024.0).contains(&ratio) {
@@ -837,10 +839,7 @@ pub fn layers(user: &UserLayers<'_>) -> Result<Layers, ConfigError> {
     // First the user's own layers, to find which preset they ask for.
     let mut mine = Layers::new();
     if let Some(path) = user.file {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = rtsim_config::read_config_file(path)?;
         let origin = path.display().to_string();
         let mut table = rtsim_config::parse_toml(&text, &origin)?;
         if let Some(Value::Table(d)) = table.remove("dram") {

@@ -10,6 +10,7 @@
 //! operations are case-insensitive and `R`/`READ`/`RD`, `W`/`WRITE`/`WR` are all accepted.
 //! A malformed line is an error naming the file and line.
 
+use rtsim_core::text::{Line, echo, line_too_long, read_line_bounded, utf8};
 use rtsim_core::{MemOp, Pcg32};
 use std::fmt;
 use std::io::BufRead;
@@ -100,9 +101,9 @@ fn parse_hex(s: &str) -> Result<u64, LineError> {
         .or_else(|| s.strip_prefix("0X"))
         .unwrap_or(s);
     if digits.is_empty() {
-        return Err(LineError::Hex(s.into()));
+        return Err(LineError::Hex(echo(s)));
     }
-    u64::from_str_radix(digits, 16).map_err(|_| LineError::Hex(s.into()))
+    u64::from_str_radix(digits, 16).map_err(|_| LineError::Hex(echo(s)))
 }
 
 /// Largest arrival cycle a trace may give (2^48: ~3 days at 1 GHz), keeping all time
@@ -113,7 +114,7 @@ pub const MAX_TRACE_GAP: u64 = 1 << 32;
 
 fn parse_dec(s: &str, what: &'static str, limit: u64) -> Result<u64, LineError> {
     let v = s.parse::<u64>().map_err(|_| LineError::Integer {
-        text: s.into(),
+        text: echo(s),
         what,
     })?;
     if v > limit {
@@ -130,7 +131,7 @@ fn parse_op(s: &str) -> Result<MemOp, LineError> {
     match s.to_ascii_uppercase().as_str() {
         "R" | "READ" | "RD" => Ok(MemOp::Read),
         "W" | "WRITE" | "WR" => Ok(MemOp::Write),
-        _ => Err(LineError::Op(s.into())),
+        _ => Err(LineError::Op(echo(s))),
     }
 }
 
@@ -172,7 +173,7 @@ pub fn parse_line(format: TraceFormat, line: &str) -> Result<Option<TraceRecord>
         TraceFormat::Usimm => {
             expect(&[3, 4], "<gap> <R|W> <hex addr> [pc]")?;
             if f.len() == 4 {
-                parse_hex(f[3]).map_err(|_| LineError::Pc(f[3].into()))?;
+                parse_hex(f[3]).map_err(|_| LineError::Pc(echo(f[3])))?;
             }
             TraceRecord {
                 when: When::Gap(parse_dec(f[0], "gap", MAX_TRACE_GAP)?),
@@ -190,9 +191,13 @@ pub struct TraceReader<R> {
     path: PathBuf,
     format: TraceFormat,
     line_no: u64,
-    buf: String,
+    buf: Vec<u8>,
     last_at: u64,
 }
+
+/// Longest trace line accepted (assumed: 4 KiB; a real line is under 64 bytes, and a file
+/// without line breaks — `/dev/zero` — must fail fast rather than fill memory).
+pub const MAX_TRACE_LINE_BYTES: usize = 4096;
 
 impl<R> fmt::Debug for TraceReader<R> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -227,7 +232,7 @@ impl<R: BufRead> TraceReader<R> {
             path: path.to_path_buf(),
             format,
             line_no: 0,
-            buf: String::new(),
+            buf: Vec::new(),
             last_at: 0,
         }
     }
@@ -240,19 +245,18 @@ impl<R: BufRead> Iterator for TraceReader<R> {
         loop {
             self.buf.clear();
             self.line_no += 1;
-            match self.reader.read_line(&mut self.buf) {
-                Ok(0) => return None,
-                Ok(_) => {}
-                Err(e) => {
-                    let message = if e.kind() == std::io::ErrorKind::InvalidData {
-                        "not valid UTF-8 text".to_string()
-                    } else {
-                        e.to_string()
-                    };
-                    return Some(Err(TraceError::at(&self.path, self.line_no, message)));
-                }
+            let at = |m: String| Some(Err(TraceError::at(&self.path, self.line_no, m)));
+            match read_line_bounded(&mut self.reader, &mut self.buf, MAX_TRACE_LINE_BYTES) {
+                Ok(Line::Eof) => return None,
+                Ok(Line::Read(_)) => {}
+                Ok(Line::TooLong) => return at(line_too_long(MAX_TRACE_LINE_BYTES)),
+                Err(e) => return at(format!("read error: {e}")),
             }
-            let parsed = parse_line(self.format, &self.buf).and_then(|r| match r {
+            let text = match utf8(&self.buf) {
+                Ok(t) => t,
+                Err(m) => return at(m),
+            };
+            let parsed = parse_line(self.format, text).and_then(|r| match r {
                 Some(TraceRecord {
                     when: When::At(t), ..
                 }) if t < self.last_at => Err(LineError::Backwards {
@@ -432,6 +436,32 @@ mod tests {
         assert!(r.next().unwrap().is_ok());
         let e = r.next().unwrap().unwrap_err().to_string();
         assert!(e.starts_with("t.trc:5:") && e.contains("earlier"), "{e}");
+    }
+
+    #[test]
+    fn endless_lines_and_bad_bytes_are_located_errors() {
+        let zeros = std::io::BufReader::new(std::io::repeat(0));
+        let mut r = TraceReader::new(zeros, Path::new("/dev/zero"), TraceFormat::Rtsim);
+        let e = r.next().unwrap().unwrap_err().to_string();
+        assert!(
+            e.starts_with("/dev/zero:1:") && e.contains("longer than"),
+            "{e}"
+        );
+        let bad = b"0 R 0x0\n1 R \xff\n";
+        let mut r = TraceReader::new(&bad[..], Path::new("t"), TraceFormat::Rtsim);
+        assert!(r.next().unwrap().is_ok());
+        let e = r.next().unwrap().unwrap_err().to_string();
+        assert!(
+            e.starts_with("t:2:") && e.contains("UTF-8") && e.contains("column 5"),
+            "{e}"
+        );
+        let e = parse_line(
+            TraceFormat::Rtsim,
+            &format!("1 R 0x{}\u{1b}", "f".repeat(10_000)),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.len() < 200 && !e.contains('\u{1b}'), "{e}");
     }
 
     #[test]

@@ -118,9 +118,14 @@ impl Default for OutputConfig {
     }
 }
 
+/// Most worker threads a run may ask for (assumed: 256; rtsim's parallel loops stop scaling
+/// long before, and each thread reserves stack: thousands of them can exhaust a memory limit
+/// while the pool is created, which aborts instead of failing cleanly).
+pub const MAX_THREADS: usize = 256;
+
 impl Validate for RunConfig {
     fn validate(&self) -> Result<(), ConfigError> {
-        check_range("threads", self.threads, 0, 4096)?;
+        check_range("threads", self.threads, 0, MAX_THREADS)?;
         if !(self.scene.size > 0.0 && self.scene.size <= 4.0) {
             return Err(ConfigError::range("scene.size", self.scene.size, "(0, 4]"));
         }
@@ -137,7 +142,7 @@ impl Validate for RunConfig {
         self.arch.validate()?;
         let (w, h, _) = self.workload.resolved_size();
         self.sim.validate_for(w, h)?;
-        self.dram.validate().map_err(|e| prefixed("dram", e))?;
+        self.dram.validate().map_err(|e| e.under("dram"))?;
         if self.trace.traversal == Traversal::BitStack
             && self.bvh.max_depth > rtsim_trace::step::bitstack::MAX_LEVELS
         {
@@ -158,26 +163,6 @@ impl Validate for RunConfig {
             ));
         }
         Ok(())
-    }
-}
-
-/// A section's own validation errors name keys relative to it; put the section in front.
-fn prefixed(section: &str, e: ConfigError) -> ConfigError {
-    match e {
-        ConfigError::Key { key, message } => ConfigError::Key {
-            key: format!("{section}.{key}"),
-            message,
-        },
-        ConfigError::Range {
-            key,
-            value,
-            allowed,
-        } => ConfigError::Range {
-            key: format!("{section}.{key}"),
-            value,
-            allowed,
-        },
-        other => other,
     }
 }
 
@@ -223,11 +208,11 @@ pub struct Resolved {
 /// The user's layers (file, flags, `--set`s), optionally above a scene's workload defaults.
 fn upper_layers(
     inputs: &Inputs,
-    workload_defaults: Option<&toml::Table>,
+    workload_defaults: Option<(&toml::Table, &str)>,
 ) -> Result<Layers, ConfigError> {
     let mut l = Layers::new();
-    if let Some(w) = workload_defaults {
-        l.merge_table_at("workload", w.clone(), "scene descriptor [workload]");
+    if let Some((w, origin)) = workload_defaults {
+        l.merge_table_at("workload", w.clone(), origin);
     }
     if let Some(path) = &inputs.config_file {
         l.merge_file(path)?;
@@ -248,6 +233,18 @@ fn upper_layers(
 pub fn layers(
     inputs: &Inputs,
     workload_defaults: Option<&toml::Table>,
+) -> Result<Layers, ConfigError> {
+    layers_named(
+        inputs,
+        workload_defaults.map(|w| (w, "scene descriptor [workload]")),
+    )
+}
+
+/// [`layers`] with the scene descriptor's `[workload]` table and where it came from (named
+/// in errors about its keys).
+pub fn layers_named(
+    inputs: &Inputs,
+    workload_defaults: Option<(&toml::Table, &str)>,
 ) -> Result<Layers, ConfigError> {
     let upper = upper_layers(inputs, workload_defaults)?;
     let mut base = Layers::new();
@@ -290,7 +287,7 @@ pub fn resolve(inputs: &Inputs, note: &mut dyn FnMut(&str)) -> Result<Resolved, 
         scene_dir: scene_dir.as_deref(),
     })
     .map_err(|source| RunError::Scene {
-        name: config.scene.name.clone(),
+        name: rtsim_core::text::echo(&config.scene.name),
         source,
     })?;
     for line in scene.report.log_lines() {
@@ -299,7 +296,11 @@ pub fn resolve(inputs: &Inputs, note: &mut dyn FnMut(&str)) -> Result<Resolved, 
     let (mut config, origins) = if scene.workload_defaults.is_empty() {
         (config, first.origins().to_vec())
     } else {
-        let second = layers(inputs, Some(&scene.workload_defaults))?;
+        let origin = format!(
+            "the [workload] table of scene `{}`'s descriptor",
+            config.scene.name
+        );
+        let second = layers_named(inputs, Some((&scene.workload_defaults, &origin)))?;
         (second.build()?, second.origins().to_vec())
     };
     // Record the concrete values the defaults resolved to, so the resolved file repeats the run.

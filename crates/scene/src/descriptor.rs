@@ -35,7 +35,7 @@
 //! Scene order: the meshes in the order listed, each in file order, then the box.
 
 use crate::auto;
-use crate::mesh::{self, Mesh};
+use crate::mesh::{self, MAX_COORDINATE, Mesh};
 use crate::{Camera, Material, PointLight, Scene, SceneError, Triangle};
 use rtsim_core::{Aabb, Affine, Vec3};
 use serde::Deserialize;
@@ -171,6 +171,27 @@ pub struct BoxSpec {
     pub emission: Option<[f32; 3]>,
 }
 
+/// A descriptor value that fails validation: its key and what is wrong.
+#[derive(Debug)]
+struct Invalid {
+    key: String,
+    message: String,
+}
+
+impl Invalid {
+    /// As an error naming `origin`, and the key's line when the descriptor `text` is known.
+    fn at(self, origin: &Path, text: Option<&str>) -> SceneError {
+        let message = format!("key `{}`: {}", self.key, self.message);
+        match text.and_then(|t| rtsim_config::key_line(t, &self.key)) {
+            Some(line) => rtsim_core::FileError::at(origin, line, message).into(),
+            None => SceneError::Format {
+                path: origin.to_path_buf(),
+                message,
+            },
+        }
+    }
+}
+
 fn v3(a: [f32; 3]) -> Vec3 {
     Vec3::from_array(a)
 }
@@ -179,7 +200,7 @@ impl Descriptor {
     /// Parse descriptor text; `origin` names it in errors (file:line: key `a.b`: message).
     pub fn parse(text: &str, origin: &Path) -> Result<Descriptor, SceneError> {
         let located = |e: toml::de::Error, key: Option<String>| {
-            let msg = e.message().trim().to_string();
+            let msg = rtsim_config::toml_message(&e, text);
             let message = match key.filter(|k| !k.is_empty() && k != ".") {
                 Some(k) => format!("key `{k}`: {msg}"),
                 None => msg,
@@ -202,21 +223,37 @@ impl Descriptor {
             let key = e.path().to_string();
             located(e.into_inner(), Some(key))
         })?;
-        d.validate(origin)?;
+        d.check().map_err(|i| i.at(origin, Some(text)))?;
         Ok(d)
     }
 
     /// Checks serde cannot express; errors name the file and key.
     pub fn validate(&self, origin: &Path) -> Result<(), SceneError> {
-        let bad = |key: &str, message: String| SceneError::Format {
-            path: origin.to_path_buf(),
-            message: format!("key `{key}`: {message}"),
+        self.check().map_err(|i| i.at(origin, None))
+    }
+
+    fn check(&self) -> Result<(), Invalid> {
+        let bad = |key: &str, message: String| Invalid {
+            key: key.to_string(),
+            message,
         };
         let finite = |key: &str, a: &[f32]| {
             if a.iter().all(|v| v.is_finite()) {
                 Ok(())
             } else {
                 Err(bad(key, format!("must be finite, got {a:?}")))
+            }
+        };
+        // Positions: finite and within what the BVH and camera arithmetic can hold.
+        let coord = |key: &str, a: &[f32]| {
+            finite(key, a)?;
+            if a.iter().all(|v| v.abs() <= MAX_COORDINATE) {
+                Ok(())
+            } else {
+                Err(bad(
+                    key,
+                    format!("must be within ±{MAX_COORDINATE:e}, got {a:?}"),
+                ))
             }
         };
         let colour = |key: &str, a: [f32; 3], max: f32| {
@@ -262,7 +299,7 @@ impl Descriptor {
                 }
             }
             if let Some(t) = m.translate {
-                finite(&k("translate"), &t)?;
+                coord(&k("translate"), &t)?;
             }
             if let Some(mat) = &m.material {
                 colour(&k("material.albedo"), mat.albedo, 1.0)?;
@@ -270,7 +307,7 @@ impl Descriptor {
             }
         }
         if let Some(c) = &self.camera {
-            finite("camera.eye", &c.eye)?;
+            coord("camera.eye", &c.eye)?;
             finite("camera.up", &c.up)?;
             let dir = match (c.direction, c.look_at) {
                 (Some(d), None) => {
@@ -278,7 +315,7 @@ impl Descriptor {
                     v3(d)
                 }
                 (None, Some(t)) => {
-                    finite("camera.look_at", &t)?;
+                    coord("camera.look_at", &t)?;
                     v3(t) - v3(c.eye)
                 }
                 _ => {
@@ -309,7 +346,7 @@ impl Descriptor {
             }
         }
         if let Some(l) = &self.light {
-            finite("light.position", &l.position)?;
+            coord("light.position", &l.position)?;
             if let Some(i) = l.intensity {
                 let a = match i {
                     IntensitySpec::Grey(g) => [g; 3],
@@ -319,8 +356,8 @@ impl Descriptor {
             }
         }
         if let Some(b) = &self.enclosure {
-            finite("box.min", &b.min)?;
-            finite("box.max", &b.max)?;
+            coord("box.min", &b.min)?;
+            coord("box.max", &b.max)?;
             if (0..3).any(|i| b.min[i] >= b.max[i]) {
                 return Err(bad(
                     "box",
@@ -400,7 +437,10 @@ impl Descriptor {
             all.append(m);
         }
         if all.triangles.is_empty() {
-            return Err(SceneError::Empty(name.to_string()));
+            return Err(SceneError::Empty {
+                name: name.to_string(),
+                why: all.report.why_empty(),
+            });
         }
         if let Some(n) = self.triangles
             && n != all.triangles.len() as u64
@@ -578,7 +618,11 @@ ao_radius = 5.0
         assert!(cam("direction = [1,0,0]\nfov_y = 180\n").contains("camera.fov_y"));
         assert!(cam("direction = [1,0,0]\nfov_y = nan\n").contains("camera.fov_y"));
         let e = err(&format!("{MIN}[box]\nmin = [0, 0, 0]\nmax = [1, 0, 1]\n"));
-        assert!(e.starts_with("d.toml: key `box`"), "{e}");
+        assert!(e.starts_with("d.toml:3: key `box`"), "{e}");
+        let e = err(&format!("{MIN}[light]\nposition = [0, 3e38, 0]\n"));
+        assert!(e.starts_with("d.toml:4: key `light.position`"), "{e}");
+        let e = err("[[mesh]]\nfile = \"a.obj\"\n[[mesh]]\nfile = \"b.obj\"\nscale = 0\n");
+        assert!(e.starts_with("d.toml:5: key `mesh[1].scale`"), "{e}");
         let e = err("[[mesh]]\nfile = \"m.obj\"\nscale = 0\n");
         assert!(e.contains("mesh[0].scale"), "{e}");
         let e = err("[[mesh]]\nfile = \"m.obj\"\nmaterial = { albedo = [2, 0, 0] }\n");

@@ -171,6 +171,20 @@ impl LoadReport {
         }
     }
 
+    /// Why a load gave no triangles (for [`SceneError::Empty`]).
+    pub fn why_empty(&self) -> String {
+        let dropped = self.dropped_degenerate + self.dropped_non_finite;
+        if dropped == 0 {
+            "the input has no faces (OBJ `f` lines, a PLY `face` element, a [box])".into()
+        } else {
+            format!(
+                "all {dropped} of its triangles were dropped ({} zero-area, {} with non-finite \
+                 coordinates)",
+                self.dropped_degenerate, self.dropped_non_finite
+            )
+        }
+    }
+
     /// One human-readable line per noteworthy item, for the caller's log (empty when loading
     /// was clean). Fan-triangulated polygons are normal input and not listed.
     pub fn log_lines(&self) -> Vec<String> {
@@ -315,6 +329,6 @@ pub enum SceneError {
     },
     #[error("{0}")]
     Config(#[from] rtsim_config::ConfigError),
-    #[error("scene `{0}` has no valid triangles")]
-    Empty(String),
+    #[error("scene `{name}` has no triangles to trace: {why}")]
+    Empty { name: String, why: String },
 }

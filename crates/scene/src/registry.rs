@@ -128,7 +128,7 @@ pub fn known_names() -> Vec<&'static str> {
 
 fn unknown(name: &str) -> SceneError {
     SceneError::UnknownScene {
-        name: name.to_string(),
+        name: rtsim_core::text::echo(name),
         known: format!(
             "{} (or a path to a .toml descriptor or an .obj/.ply mesh, optionally .zst/.gz)",
             known_names().join(", ")
@@ -146,7 +146,8 @@ pub fn find_scene(name: &str) -> Result<SceneSource, SceneError> {
     }
     let path = Path::new(name);
     let looks_like_file = is_descriptor_path(path) || mesh_format(path).is_some();
-    if path.is_file() || looks_like_file {
+    // Anything that exists is taken as a file, so a directory or device is reported as one.
+    if path.is_file() || looks_like_file || path.exists() {
         // A missing file with a scene-file extension is reported as missing when loading.
         return Ok(SceneSource::File(path.to_path_buf()));
     }
@@ -171,17 +172,30 @@ pub fn load_scene(req: &SceneRequest<'_>) -> Result<Scene, SceneError> {
             d.build(name, &base)
         }
         SceneSource::File(path) => {
-            if !path.is_file() {
+            // Checked before opening: a FIFO would wait for a writer, a directory has no text.
+            let meta = std::fs::metadata(&path).map_err(|e| {
+                let e = match e.kind() {
+                    std::io::ErrorKind::NotFound => {
+                        std::io::Error::new(e.kind(), "no such scene file")
+                    }
+                    _ => e,
+                };
+                rtsim_core::FileError::io(&path, e)
+            })?;
+            if !meta.is_file() {
+                let kind = rtsim_core::error::describe_file_type(&meta.file_type());
                 return Err(rtsim_core::FileError::io(
                     &path,
-                    std::io::Error::new(std::io::ErrorKind::NotFound, "no such scene file"),
+                    std::io::Error::new(
+                        std::io::ErrorKind::InvalidInput,
+                        format!("it is {kind}, not a scene file"),
+                    ),
                 )
                 .into());
             }
             let name = scene_name_of(&path);
             if is_descriptor_path(&path) {
-                let text = std::fs::read_to_string(&path)
-                    .map_err(|source| rtsim_core::FileError::io(&path, source))?;
+                let text = rtsim_core::text::read_text_file(&path)?;
                 let d = Descriptor::parse(&text, &path)?;
                 let base = match d.paths {
                     PathBase::Descriptor => {
@@ -253,7 +267,10 @@ fn scene_name_of(path: &Path) -> String {
 fn load_bare_mesh(path: &Path, name: &str) -> Result<Scene, SceneError> {
     let m = mesh::load_mesh(path, &Affine::IDENTITY)?;
     if m.triangles.is_empty() {
-        return Err(SceneError::Empty(name.to_string()));
+        return Err(SceneError::Empty {
+            name: name.to_string(),
+            why: m.report.why_empty(),
+        });
     }
     let mut bounds = Aabb::EMPTY;
     for t in &m.triangles {

@@ -166,18 +166,28 @@ fn ramp(x: f32) -> [u8; 3] {
     [c(0), c(1), c(2)]
 }
 
+/// Encode 8-bit RGB pixels as a PNG into `w`.
+pub fn encode_png<W: io::Write>(w: W, width: u32, height: u32, rgb: &[u8]) -> io::Result<()> {
+    let mut enc = png::Encoder::new(w, width, height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut w = enc.write_header().map_err(io::Error::other)?;
+    w.write_image_data(rgb).map_err(io::Error::other)?;
+    w.finish().map_err(io::Error::other)
+}
+
+/// 8-bit RGB pixels as PNG bytes.
+pub fn png_bytes(width: u32, height: u32, rgb: &[u8]) -> io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    encode_png(&mut out, width, height, rgb)?;
+    Ok(out)
+}
+
 /// Write 8-bit RGB pixels as a PNG, atomically.
 pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> io::Result<()> {
     let mut file = AtomicFile::create(path)?;
-    {
-        let mut enc = png::Encoder::new(&mut file, width, height);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-        let mut w = enc.write_header().map_err(io::Error::other)?;
-        w.write_image_data(rgb).map_err(io::Error::other)?;
-        w.finish().map_err(io::Error::other)?;
-    }
+    encode_png(&mut file, width, height, rgb)?;
     file.commit()
 }
 

@@ -37,13 +37,22 @@ pub enum QueryError {
 }
 
 /// A streaming reader of `rays.bin`.
-#[derive(Debug)]
 pub struct RayReader {
     path: PathBuf,
-    reader: BufReader<File>,
+    reader: Box<dyn Read + Send>,
     count: u64,
     next: u64,
     buf: Vec<u8>,
+}
+
+impl std::fmt::Debug for RayReader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RayReader")
+            .field("path", &self.path)
+            .field("count", &self.count)
+            .field("next", &self.next)
+            .finish_non_exhaustive()
+    }
 }
 
 impl RayReader {
@@ -53,9 +62,38 @@ impl RayReader {
             path: path.to_path_buf(),
             source,
         };
+        // Checked before opening: a FIFO would wait for a writer and has no length.
+        let meta = std::fs::metadata(path).map_err(io_err)?;
+        if !meta.is_file() {
+            return Err(QueryError::Format {
+                path: path.into(),
+                message: format!(
+                    "is {}, not a rays file",
+                    rtsim_core::error::describe_file_type(&meta.file_type())
+                ),
+            });
+        }
         let file = File::open(path).map_err(io_err)?;
         let len = file.metadata().map_err(io_err)?.len();
-        let mut reader = BufReader::with_capacity(1 << 20, file);
+        Self::from_reader(Box::new(BufReader::with_capacity(1 << 20, file)), len, path)
+    }
+
+    /// Read rays from memory (`path` names them in errors).
+    pub fn from_bytes(bytes: Vec<u8>, path: &Path) -> Result<Self, QueryError> {
+        let len = bytes.len() as u64;
+        Self::from_reader(Box::new(io::Cursor::new(bytes)), len, path)
+    }
+
+    /// Read `len` bytes of `rays.bin` from `reader`, checking the header against `len`.
+    pub fn from_reader(
+        mut reader: Box<dyn Read + Send>,
+        len: u64,
+        path: &Path,
+    ) -> Result<Self, QueryError> {
+        let io_err = |source| QueryError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
         let mut head = [0u8; 8];
         if len < 8 {
             return Err(QueryError::Format {
@@ -155,10 +193,9 @@ pub fn encode_hits(hits: &[Hit], out: &mut Vec<u8>) {
     }
 }
 
-/// Write `rays.bin` atomically.
-pub fn write_rays(path: &Path, rays: &[Ray]) -> io::Result<()> {
-    let mut f = AtomicFile::create(path)?;
-    f.write_all(&(rays.len() as u64).to_le_bytes())?;
+/// Encode `rays` in the `rays.bin` layout into `w`.
+pub fn encode_rays<W: Write>(mut w: W, rays: &[Ray]) -> io::Result<()> {
+    w.write_all(&(rays.len() as u64).to_le_bytes())?;
     let mut buf = Vec::with_capacity(rays.len().min(1 << 16) * RAY_BYTES as usize);
     for chunk in rays.chunks(1 << 16) {
         buf.clear();
@@ -176,8 +213,15 @@ pub fn write_rays(path: &Path, rays: &[Ray]) -> io::Result<()> {
                 buf.extend_from_slice(&v.to_le_bytes());
             }
         }
-        f.write_all(&buf)?;
+        w.write_all(&buf)?;
     }
+    Ok(())
+}
+
+/// Write `rays.bin` atomically.
+pub fn write_rays(path: &Path, rays: &[Ray]) -> io::Result<()> {
+    let mut f = AtomicFile::create(path)?;
+    encode_rays(&mut f, rays)?;
     f.commit()
 }
 

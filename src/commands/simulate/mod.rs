@@ -10,12 +10,12 @@
 mod functional;
 
 use crate::cli::SceneArgs;
+use crate::commands::FrameOutputs;
 use crate::run_config::Flag;
 use crate::session::{self, Session};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
-use rtsim_core::output::write_atomic;
-use rtsim_trace::film::{heatmap_rgb8, write_png};
+use rtsim_trace::film::heatmap_rgb8;
 use rtsim_trace::{PixelResult, ToneMap, WorkloadKind};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -31,18 +31,24 @@ pub struct SimulateArgs {
     /// Workload: primary, ao, diffuse, path, specular.
     #[arg(long)]
     pub workload: Option<String>,
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub width: Option<u32>,
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Samples per pixel.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
     pub spp: Option<u32>,
     /// Simulate only pixels x0..x1 × y0..y1 of the image (`sim.window`).
-    #[arg(long, value_name = "X0,Y0,X1,Y1", value_delimiter = ',')]
+    #[arg(
+        long,
+        value_name = "X0,Y0,X1,Y1",
+        value_delimiter = ',',
+        value_parser = crate::cli::u32_arg,
+        allow_negative_numbers = true
+    )]
     pub window: Option<Vec<u32>>,
     /// Stop after this many core cycles (`sim.cycle_limit`).
-    #[arg(long, value_name = "CYCLES")]
+    #[arg(long, value_name = "CYCLES", value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub cycle_limit: Option<u64>,
     /// Timing engine: fast (default) or reference (cycle by cycle) (`sim.mode`).
     #[arg(long)]
@@ -118,11 +124,15 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             .as_ref()
             .map(|w| Value::Array(w.iter().map(|&v| Value::Integer(v.into())).collect())),
     );
-    s(
-        "sim.cycle_limit",
-        args.cycle_limit
-            .map(|c| Value::Integer(c.min(i64::MAX as u64) as i64)),
-    );
+    let cycle_limit = args
+        .cycle_limit
+        .map(|c| {
+            i64::try_from(c).map_err(|_| {
+                rtsim_config::ConfigError::range("--cycle-limit", c, format!("1..={}", i64::MAX))
+            })
+        })
+        .transpose()?;
+    s("sim.cycle_limit", cycle_limit.map(Value::Integer));
     s("sim.mode", args.mode.clone().map(Value::String));
     s(
         "output.dir",
@@ -130,7 +140,10 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             .as_ref()
             .map(|o| Value::String(o.display().to_string())),
     );
-    let session = session::open(&args.scene, &flags, false)?;
+    let resolved = crate::run_config::resolve(&args.scene, &flags)?;
+    // Pre-flight: every output is checked and staged before the (possibly hours-long) run.
+    let outputs = crate::commands::FrameOutputs::prepare(&args.scene, &resolved)?;
+    let session = session::build(resolved, false)?;
     let preset = session.resolved.config.arch.preset.clone();
     let out = match preset.as_str() {
         "functional" => functional::run(&session)?,
@@ -138,7 +151,8 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             "arch.preset = {other} has no simulator in this build (known: functional)"
         ),
     };
-    let top = write_outputs(&session, &out)?;
+    let png = outputs.png().to_path_buf();
+    let top = write_outputs(&session, &out, outputs)?;
     for line in &out.summary {
         println!("{line}");
     }
@@ -146,24 +160,14 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         "heat map         {} per pixel, ramp top (99th percentile) {top}",
         out.heat_label
     );
-    println!(
-        "wrote            {}",
-        session
-            .resolved
-            .config
-            .output
-            .dir
-            .join("render.png")
-            .display()
-    );
+    println!("wrote            {}", png.display());
     Ok(())
 }
 
-/// Write the image, heat map, stats, timing and resolved config, each atomically; returns the
-/// heat map's top value.
-fn write_outputs(s: &Session, out: &SimOutput) -> Result<u64> {
+/// Write the image, heat map, stats, timing and resolved config as one set (all or none);
+/// returns the heat map's top value.
+fn write_outputs(s: &Session, out: &SimOutput, files: FrameOutputs) -> Result<u64> {
     let cfg = &s.resolved.config;
-    let dir = &cfg.output.dir;
     let params = rtsim_run::workload_params(&s.resolved);
     let (w, h) = (params.width, params.height);
     let frame = rtsim_trace::Frame {
@@ -177,25 +181,17 @@ fn write_outputs(s: &Session, out: &SimOutput) -> Result<u64> {
         (None, WorkloadKind::Ao) => ToneMap::Linear { exposure: 1.0 },
         (None, _) => ToneMap::Auto,
     };
-    let png = dir.join("render.png");
-    write_png(&png, w, h, &frame.to_srgb8(tone))
-        .with_context(|| format!("writing {}", png.display()))?;
+    let image = frame.to_srgb8(tone);
+    crate::commands::warn_if_black(&image, params.kind, &s.resolved);
     let (rgb, top) = heatmap_rgb8(&out.heat);
-    if cfg.output.heatmap {
-        let p = dir.join("heatmap.png");
-        write_png(&p, w, h, &rgb).with_context(|| format!("writing {}", p.display()))?;
-    }
     let json = |v: serde_json::Value| serde_json::to_string_pretty(&v);
-    let stats_path = dir.join("stats.json");
-    write_atomic(&stats_path, json(out.stats.to_json()?)?.as_bytes())
-        .with_context(|| format!("writing {}", stats_path.display()))?;
-    write_atomic(
-        dir.join("timing.json"),
-        serde_json::to_string_pretty(&out.timing)?.as_bytes(),
-    )?;
-    write_atomic(
-        dir.join("config.resolved.toml"),
-        rtsim_run::resolved_toml(&s.resolved, "simulate")?.as_bytes(),
+    files.write(
+        (w, h),
+        &image,
+        &rgb,
+        &json(out.stats.to_json()?)?,
+        &serde_json::to_string_pretty(&out.timing)?,
+        &rtsim_run::resolved_toml(&s.resolved, "simulate")?,
     )?;
     Ok(top)
 }

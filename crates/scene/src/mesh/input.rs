@@ -2,10 +2,18 @@
 
 use super::io_error;
 use crate::SceneError;
+use rtsim_core::text::{Line, MAX_LINE_BYTES, line_too_long, read_line_bounded};
 use std::ffi::OsString;
 use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
+
+/// Bytes that never occur in a text mesh file: NUL and the C0 controls other than tab, line
+/// feed, vertical tab, form feed and carriage return, plus a carriage return left inside a
+/// line (CR-only line endings).
+fn is_binary(b: u8) -> bool {
+    (b < 0x20 && !matches!(b, b'\t' | b'\n' | b'\x0b' | b'\x0c')) || b == 0x7f
+}
 
 /// Read buffer for decompressed text: large enough that `read_until` rarely refills
 /// (assumed: 1 MiB; the largest staged file, Crytek Sponza, is 26 MB of text).
@@ -34,20 +42,75 @@ pub(crate) fn split_compression(path: &Path) -> (OsString, Compression) {
     (name, Compression::None)
 }
 
-/// Open `path` for buffered reading, decompressing by extension (`.zst`, `.gz`).
+/// Open `path` for buffered reading, decompressing by extension (`.zst`, `.gz`). A
+/// directory, device or FIFO is refused with what it is.
 pub fn open_decompressed(path: &Path) -> Result<Box<dyn BufRead + Send>, SceneError> {
+    // Checked before opening: opening a FIFO would wait for a writer.
+    let m = std::fs::metadata(path).map_err(|e| io_error(path, e))?;
+    if !m.is_file() {
+        let kind = rtsim_core::error::describe_file_type(&m.file_type());
+        return Err(io_error(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("it is {kind}, not a mesh file"),
+            ),
+        ));
+    }
     let file = File::open(path).map_err(|e| io_error(path, e))?;
-    Ok(match split_compression(path).1 {
-        Compression::None => Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, file)),
+    decompress(file, split_compression(path).1).map_err(|e| io_error(path, e))
+}
+
+/// `input` decompressed as `compression` says, buffered. Decompression errors read as
+/// "corrupt gzip data: …" (or zstd), never as a problem with the text.
+pub fn decompress<R: Read + Send + 'static>(
+    input: R,
+    compression: Compression,
+) -> std::io::Result<Box<dyn BufRead + Send>> {
+    Ok(match compression {
+        Compression::None => Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, input)),
         Compression::Zstd => {
-            let dec = zstd::stream::read::Decoder::new(file).map_err(|e| io_error(path, e))?;
-            Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, dec))
+            let dec = zstd::stream::read::Decoder::new(input).map_err(|e| corrupt("zstd", e))?;
+            Box::new(BufReader::with_capacity(
+                READ_BUFFER_BYTES,
+                Decoding {
+                    inner: dec,
+                    what: "zstd",
+                },
+            ))
         }
         Compression::Gzip => {
-            let dec = flate2::read::MultiGzDecoder::new(BufReader::new(file));
-            Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, dec))
+            let dec = flate2::read::MultiGzDecoder::new(BufReader::new(input));
+            Box::new(BufReader::with_capacity(
+                READ_BUFFER_BYTES,
+                Decoding {
+                    inner: dec,
+                    what: "gzip",
+                },
+            ))
         }
     })
+}
+
+/// A decoder whose errors say they are the compressed stream's.
+struct Decoding<R> {
+    inner: R,
+    what: &'static str,
+}
+
+impl<R: Read> Read for Decoding<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.inner.read(buf).map_err(|e| corrupt(self.what, e))
+    }
+}
+
+fn corrupt(what: &str, e: std::io::Error) -> std::io::Error {
+    let kind = match e.kind() {
+        // A cut stream stays recognisable as one.
+        std::io::ErrorKind::UnexpectedEof => std::io::ErrorKind::UnexpectedEof,
+        _ => std::io::ErrorKind::InvalidData,
+    };
+    std::io::Error::new(kind, format!("corrupt {what} data ({e})"))
 }
 
 /// Reads a text file one line at a time into a reused buffer, counting lines (1-based).
@@ -76,21 +139,50 @@ impl<'p, R: BufRead> LineReader<'p, R> {
     }
 
     /// The next logical line without its line ending, and the number of its first physical
-    /// line; `None` at the end of the file.
+    /// line; `None` at the end of the file. Lines longer than [`MAX_LINE_BYTES`], binary data
+    /// (NUL and other control bytes) and CR-only line endings are errors naming the line.
     pub(crate) fn next_line(&mut self) -> Result<Option<(u64, &[u8])>, SceneError> {
         self.buf.clear();
         let first = self.lines_read + 1;
         loop {
             let start = self.buf.len();
-            let n = self.reader.read_until(b'\n', &mut self.buf).map_err(|e| {
-                super::parse_error(self.path, self.lines_read + 1, format!("read error: {e}"))
-            })?;
-            if n == 0 {
-                if start == 0 && self.lines_read + 1 == first {
-                    return Ok(None);
+            let line_no = self.lines_read + 1;
+            let done = self.lines_read;
+            let read = read_line_bounded(&mut self.reader, &mut self.buf, MAX_LINE_BYTES).map_err(
+                |e| {
+                    if e.kind() == std::io::ErrorKind::InvalidData
+                        || e.kind() == std::io::ErrorKind::UnexpectedEof
+                    {
+                        // The compressed stream's problem, not the text's.
+                        rtsim_core::FileError::io(
+                            self.path,
+                            std::io::Error::new(
+                                e.kind(),
+                                format!("{e}, after {done} line(s) of text"),
+                            ),
+                        )
+                        .into()
+                    } else {
+                        super::parse_error(self.path, line_no, format!("read error: {e}"))
+                    }
+                },
+            )?;
+            let n = match read {
+                Line::Eof => {
+                    if start == 0 && self.lines_read + 1 == first {
+                        return Ok(None);
+                    }
+                    break; // a continuation at the very end: take what there is
                 }
-                break; // a continuation at the very end: take what there is
-            }
+                Line::TooLong => {
+                    return Err(super::parse_error(
+                        self.path,
+                        line_no,
+                        line_too_long(MAX_LINE_BYTES),
+                    ));
+                }
+                Line::Read(n) => n,
+            };
             self.lines_read += 1;
             self.bytes_read += n as u64;
             // A UTF-8 byte order mark (some Windows exporters write one) is not content.
@@ -102,6 +194,19 @@ impl<'p, R: BufRead> LineReader<'p, R> {
             }
             if self.buf.last() == Some(&b'\r') {
                 self.buf.pop();
+            }
+            if let Some(bad) = self.buf[start..].iter().find(|&&b| is_binary(b)) {
+                let why = if *bad == b'\r' {
+                    "carriage return inside a line: CR-only (classic Mac) line endings are not \
+                     supported; convert them to LF"
+                        .to_string()
+                } else {
+                    format!(
+                        "binary data (byte 0x{bad:02x}): not a text file, or a binary file with \
+                         the wrong extension"
+                    )
+                };
+                return Err(super::parse_error(self.path, line_no, why));
             }
             if self.continuation && self.buf.len() > start && self.buf.last() == Some(&b'\\') {
                 self.buf.pop();
@@ -218,9 +323,57 @@ mod tests {
             }
         };
         assert!(
-            err.contains("a.obj.zst:") && err.contains("read error"),
+            err.contains("a.obj.zst:") && err.contains("corrupt zstd data"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn binary_data_and_cr_only_endings_are_named() {
+        let p = Path::new("t.obj");
+        let err = |bytes: &[u8]| {
+            let mut r = LineReader::new(Cursor::new(bytes.to_vec()), p, false);
+            loop {
+                match r.next_line() {
+                    Ok(Some(_)) => continue,
+                    Ok(None) => panic!("read to the end"),
+                    Err(e) => break e.to_string(),
+                }
+            }
+        };
+        let e = err(b"v 1 2 3\rv 4 5 6\r");
+        assert!(e.starts_with("t.obj:1:") && e.contains("CR-only"), "{e}");
+        let e = err(b"v 1 2 3\n\x89PNG\x00\x01");
+        assert!(
+            e.starts_with("t.obj:2:") && e.contains("binary data"),
+            "{e}"
+        );
+        let long = vec![b'x'; MAX_LINE_BYTES + 10];
+        let e = err(&long);
+        assert!(
+            e.starts_with("t.obj:1:") && e.contains("longer than"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn corrupt_gzip_is_a_decompression_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.obj.gz");
+        std::fs::write(&p, b"v 0 0 0\nnot gzip at all\n").unwrap();
+        let mut r = LineReader::new(open_decompressed(&p).unwrap(), &p, false);
+        let e = r.next_line().unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("cannot read {}", p.display())) && e.contains("corrupt gzip"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn directories_are_not_mesh_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = open_decompressed(dir.path()).err().unwrap().to_string();
+        assert!(e.contains("it is a directory, not a mesh file"), "{e}");
     }
 
     #[test]

@@ -21,7 +21,7 @@ pub mod ply;
 mod input;
 mod num;
 
-pub use input::{Compression, open_decompressed};
+pub use input::{Compression, decompress, open_decompressed};
 
 use crate::{LoadReport, Material, SceneError, Triangle, triangle_defect};
 use rtsim_core::{Affine, Vec3};
@@ -140,12 +140,14 @@ pub fn mesh_format(path: &Path) -> Option<(MeshFormat, Compression)> {
 
 /// Load a mesh file (format from the name, see [`mesh_format`]) and apply `transform`.
 pub fn load_mesh(path: &Path, transform: &Affine) -> Result<Mesh, SceneError> {
-    load_indexed(path).map(|m| m.into_mesh(transform))
+    let mesh = load_indexed(path)?.into_mesh(transform);
+    check_extent(&mesh, path)?;
+    Ok(mesh)
 }
 
 /// Load a mesh file without building triangles.
 pub fn load_indexed(path: &Path) -> Result<IndexedMesh, SceneError> {
-    let Some((format, _)) = mesh_format(path) else {
+    let Some((format, compression)) = mesh_format(path) else {
         return Err(SceneError::Format {
             path: path.to_path_buf(),
             message: "unsupported mesh format: expected .obj or .ply, optionally followed by \
@@ -156,8 +158,38 @@ pub fn load_indexed(path: &Path) -> Result<IndexedMesh, SceneError> {
     let reader = open_decompressed(path)?;
     match format {
         MeshFormat::Obj => obj::parse_obj(reader, path),
-        MeshFormat::Ply => ply::parse_ply(reader, path),
+        MeshFormat::Ply => {
+            // A plain file's length bounds every element count before anything is read.
+            let len = match compression {
+                Compression::None => std::fs::metadata(path).ok().map(|m| m.len()),
+                _ => None,
+            };
+            ply::parse_ply_sized(reader, path, len)
+        }
     }
+}
+
+/// Largest coordinate magnitude a scene may have (assumed: 10^18; a BVH node's surface area,
+/// a product of two extents of up to 2·10^18, then stays far below `f32::MAX` ≈ 3.4·10^38, and
+/// so do the SAH cost, the automatic camera distance and the AO radius).
+pub const MAX_COORDINATE: f32 = 1e18;
+
+/// The first triangle of `mesh` with a coordinate beyond [`MAX_COORDINATE`], as an error
+/// naming `path` (coordinates are checked after the transform).
+pub fn check_extent(mesh: &Mesh, path: &Path) -> Result<(), SceneError> {
+    for (i, t) in mesh.triangles.iter().enumerate() {
+        if t.iter().any(|v| v.abs().max_component() > MAX_COORDINATE) {
+            return Err(SceneError::Format {
+                path: path.to_path_buf(),
+                message: format!(
+                    "triangle {i} has a vertex at {:?}, beyond the ±{MAX_COORDINATE:e} rtsim \
+                     supports (BVH surface areas would overflow f32): rescale the mesh",
+                    t.map(|v| v.to_array())
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// An I/O error while reading `path` (decompression errors, truncated compressed streams).
@@ -237,7 +269,10 @@ mod tests {
             let p = dir.path().join(name);
             std::fs::write(&p, &bytes[..bytes.len() * 2 / 3]).unwrap();
             let e = load_mesh(&p, &Affine::IDENTITY).unwrap_err().to_string();
-            assert!(e.starts_with(&p.display().to_string()), "{name}: {e}");
+            assert!(
+                e.contains(&p.display().to_string()) && e.contains("corrupt"),
+                "{name}: {e}"
+            );
         }
     }
 

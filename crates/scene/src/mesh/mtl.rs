@@ -9,6 +9,7 @@ use super::num::{parse_f32, tokens};
 use super::parse_error;
 use crate::{LoadReport, Material, SceneError};
 use rtsim_core::Vec3;
+use rtsim_core::text::echo;
 use std::io::BufRead;
 use std::path::Path;
 
@@ -34,8 +35,9 @@ pub fn parse_mtl<R: BufRead>(
                 }
                 if let Some(i) = out.iter().position(|m| m.name == name) {
                     report.warnings.push(format!(
-                        "{}:{line_no}: material `{name}` defined again; the later definition wins",
-                        path.display()
+                        "{}:{line_no}: material `{}` defined again; the later definition wins",
+                        path.display(),
+                        echo(&name)
                     ));
                     out.remove(i);
                 }
@@ -51,15 +53,15 @@ pub fn parse_mtl<R: BufRead>(
                     return Err(parse_error(
                         path,
                         line_no,
-                        format!("`{}` before any `newmtl`", String::from_utf8_lossy(key)),
+                        format!("`{}` before any `newmtl`", echo(key)),
                     ));
                 };
                 if matches!(args.first(), Some(&b"spectral") | Some(&b"xyz")) {
                     report.warnings.push(format!(
                         "{}:{line_no}: `{} {}` colours are not supported; kept the default",
                         path.display(),
-                        String::from_utf8_lossy(key),
-                        String::from_utf8_lossy(args[0])
+                        echo(key),
+                        echo(args[0])
                     ));
                     continue;
                 }
@@ -69,8 +71,8 @@ pub fn parse_mtl<R: BufRead>(
                         line_no,
                         format!(
                             "malformed `{}`: expected 1 or 3 finite non-negative numbers, found `{}`",
-                            String::from_utf8_lossy(key),
-                            String::from_utf8_lossy(rest_bytes(line, key)).trim()
+                            echo(key),
+                            echo(rest_bytes(line, key).trim_ascii())
                         ),
                     )
                 })?;

@@ -23,6 +23,7 @@ use super::num::{parse_f32, parse_i64, tokens};
 use super::{IndexedMesh, parse_error};
 use crate::{LoadReport, Material, SceneError};
 use rtsim_core::Vec3;
+use rtsim_core::text::echo;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -123,6 +124,13 @@ impl<'p> ObjParser<'p> {
             return Ok(());
         };
         match key {
+            // A PLY file named `.obj` would otherwise load as an OBJ with no faces.
+            b"ply" if line_no == 1 && toks.next().is_none() => {
+                return Err(self.err(
+                    line_no,
+                    "this is a PLY file (its first line is `ply`), not OBJ: name it .ply",
+                ));
+            }
             b"v" => {
                 let mut xyz = [0.0f32; 3];
                 for (i, c) in xyz.iter_mut().enumerate() {
@@ -133,10 +141,7 @@ impl<'p> ObjParser<'p> {
                         )
                     })?;
                     *c = parse_f32(tok).ok_or_else(|| {
-                        self.err(
-                            line_no,
-                            format!("malformed number `{}`", String::from_utf8_lossy(tok)),
-                        )
+                        self.err(line_no, format!("malformed number `{}`", echo(tok)))
                     })?;
                 }
                 self.positions.push(Vec3::from_array(xyz));
@@ -166,9 +171,7 @@ impl<'p> ObjParser<'p> {
             k if IGNORED.contains(&k) => {}
             k if NOT_POLYGONS.contains(&k) => self.not_polygons += 1,
             k => {
-                self.unknown
-                    .entry(String::from_utf8_lossy(k).into_owned())
-                    .or_insert(line_no);
+                self.unknown.entry(echo(k)).or_insert(line_no);
             }
         }
         Ok(())
@@ -189,7 +192,7 @@ impl<'p> ObjParser<'p> {
                     line_no,
                     format!(
                         "malformed vertex reference `{}` (expected v, v/vt, v//vn or v/vt/vn)",
-                        String::from_utf8_lossy(r)
+                        echo(r)
                     ),
                 )
             };
@@ -308,7 +311,7 @@ impl<'p> ObjParser<'p> {
             self.report.warnings.push(format!(
                 "{}:{line_no}: material library {} not found (also tried .zst and .gz); its materials are grey",
                 self.path.display(),
-                base.display()
+                echo(base.display().to_string())
             ));
             return Ok(());
         };
@@ -336,14 +339,9 @@ impl<'p> ObjParser<'p> {
         let path = self.path.display();
         if !self.undefined.is_empty() {
             const SHOWN: usize = 8;
-            let mut names: Vec<&str> = self
-                .undefined
-                .iter()
-                .take(SHOWN)
-                .map(String::as_str)
-                .collect();
+            let mut names: Vec<String> = self.undefined.iter().take(SHOWN).map(echo).collect();
             if self.undefined.len() > SHOWN {
-                names.push("…");
+                names.push("…".into());
             }
             let why = if self.libraries_loaded == 0 {
                 "no material library was loaded"

@@ -19,12 +19,14 @@ use super::num::{parse_f64, parse_i64, tokens};
 use super::{IndexedMesh, parse_error};
 use crate::{LoadReport, Material, SceneError};
 use rtsim_core::Vec3;
+use rtsim_core::text::echo;
 use std::io::{BufRead, Read};
 use std::path::Path;
 
-/// Most elements reserved up front, whatever the header claims (assumed: 16 M; a corrupt
-/// count must not allocate gigabytes before the body proves it).
-const MAX_RESERVE: u64 = 1 << 24;
+/// Most elements reserved up front, whatever the header claims (assumed: 1 M, 12 MB of
+/// positions; a corrupt count must not allocate before the body proves it, and beyond this
+/// the vectors grow by doubling as the records arrive).
+const MAX_RESERVE: u64 = 1 << 20;
 
 /// List entries read per block in binary files (assumed: 4096 covers any real polygon in one
 /// read while bounding the buffer).
@@ -175,9 +177,25 @@ struct Layout {
 
 /// Parse a PLY stream; `path` names the file in errors.
 pub fn parse_ply<R: BufRead>(reader: R, path: &Path) -> Result<IndexedMesh, SceneError> {
+    parse_ply_sized(reader, path, None)
+}
+
+/// Parse a PLY stream of `len` bytes if known (a plain file; not a compressed stream), so
+/// that every element count is checked against what the file can hold before it is read.
+pub fn parse_ply_sized<R: BufRead>(
+    reader: R,
+    path: &Path,
+    len: Option<u64>,
+) -> Result<IndexedMesh, SceneError> {
     let mut lines = LineReader::new(reader, path, false);
     let (encoding, elements) = parse_header(&mut lines, path)?;
     let layout = find_layout(&elements, path)?;
+    check_counts(
+        &elements,
+        encoding,
+        len.map(|l| l.saturating_sub(lines.bytes_read())),
+        path,
+    )?;
     let vertex_count = elements[layout.vertex].count;
     if vertex_count > u32::MAX as u64 {
         return Err(format_error(
@@ -196,7 +214,23 @@ pub fn parse_ply<R: BufRead>(reader: R, path: &Path) -> Result<IndexedMesh, Scen
         face: Vec::with_capacity(8),
     };
     match encoding {
-        Encoding::Ascii => body.read_ascii(&mut lines)?,
+        Encoding::Ascii => {
+            body.read_ascii(&mut lines)?;
+            // Anything but blank lines after the last element is not PLY data.
+            while let Some((n, l)) = lines.next_line()? {
+                if !l.trim_ascii().is_empty() {
+                    return Err(parse_error(
+                        path,
+                        n,
+                        format!(
+                            "data after the last element (`{}`): the header declares fewer \
+                             elements than the file has",
+                            echo(l)
+                        ),
+                    ));
+                }
+            }
+        }
         Encoding::Binary { big } => {
             let offset = lines.bytes_read();
             let mut reader = BinReader {
@@ -204,6 +238,22 @@ pub fn parse_ply<R: BufRead>(reader: R, path: &Path) -> Result<IndexedMesh, Scen
                 offset,
             };
             body.read_binary(&mut reader, big)?;
+            let mut extra = [0u8; 1];
+            let at = reader.offset;
+            if reader
+                .inner
+                .read(&mut extra)
+                .map_err(|e| format_error(path, format!("read error at byte offset {at}: {e}")))?
+                > 0
+            {
+                return Err(format_error(
+                    path,
+                    format!(
+                        "data after the last element, from byte offset {at}: the header declares \
+                         fewer or smaller elements than the file has"
+                    ),
+                ));
+            }
         }
     }
     let n = body.indices.len();
@@ -248,6 +298,7 @@ fn parse_header<R: BufRead>(
         };
         let toks: Vec<&[u8]> = tokens(line).collect();
         let text = |t: &[u8]| String::from_utf8_lossy(t).into_owned();
+        let quote = |t: &[u8]| echo(t);
         match toks.as_slice() {
             [] => {}
             [b"end_header"] => break,
@@ -257,7 +308,7 @@ fn parse_header<R: BufRead>(
                     return Err(parse_error(
                         path,
                         n,
-                        format!("unsupported PLY version `{}`", text(version)),
+                        format!("unsupported PLY version `{}`", quote(version)),
                     ));
                 }
                 encoding = Some(match *fmt {
@@ -268,7 +319,7 @@ fn parse_header<R: BufRead>(
                         return Err(parse_error(
                             path,
                             n,
-                            format!("unknown PLY format `{}`", text(other)),
+                            format!("unknown PLY format `{}`", quote(other)),
                         ));
                     }
                 });
@@ -280,9 +331,16 @@ fn parse_header<R: BufRead>(
                         parse_error(
                             path,
                             n,
-                            format!("malformed element count `{}`", text(count)),
+                            format!("malformed element count `{}`", quote(count)),
                         )
                     })?;
+                if elements.iter().any(|e| e.name.as_bytes() == *name) {
+                    return Err(parse_error(
+                        path,
+                        n,
+                        format!("element `{}` is declared twice", quote(name)),
+                    ));
+                }
                 elements.push(Element {
                     name: text(name),
                     count,
@@ -295,7 +353,7 @@ fn parse_header<R: BufRead>(
                 };
                 let ty = |t: &[u8]| {
                     Scalar::from_name(t).ok_or_else(|| {
-                        parse_error(path, n, format!("unknown property type `{}`", text(t)))
+                        parse_error(path, n, format!("unknown property type `{}`", quote(t)))
                     })
                 };
                 let prop = match rest {
@@ -322,23 +380,94 @@ fn parse_header<R: BufRead>(
                         return Err(parse_error(
                             path,
                             n,
-                            format!("malformed property line `{}`", text(line)),
+                            format!("malformed property line `{}`", quote(line)),
                         ));
                     }
                 };
+                let name = match &prop {
+                    Property::Scalar { name, .. } | Property::List { name, .. } => name,
+                };
+                if el.props.iter().any(|p| match p {
+                    Property::Scalar { name: q, .. } | Property::List { name: q, .. } => q == name,
+                }) {
+                    return Err(parse_error(
+                        path,
+                        n,
+                        format!(
+                            "property `{}` of element `{}` is declared twice",
+                            echo(name),
+                            echo(&el.name)
+                        ),
+                    ));
+                }
                 el.props.push(prop);
             }
             _ => {
                 return Err(parse_error(
                     path,
                     n,
-                    format!("unexpected header line `{}`", text(line)),
+                    format!("unexpected header line `{}`", quote(line)),
                 ));
             }
         }
     }
     let encoding = encoding.ok_or_else(|| format_error(path, "header has no `format` line"))?;
     Ok((encoding, elements))
+}
+
+/// Fewest bytes one instance of `el` takes: binary, each scalar and each list's length; ASCII,
+/// one digit and one separator per value.
+fn min_record_bytes(el: &Element, encoding: Encoding) -> u64 {
+    match encoding {
+        Encoding::Binary { .. } => el
+            .props
+            .iter()
+            .map(|p| match p {
+                Property::Scalar { ty, .. } => ty.size() as u64,
+                Property::List { count, .. } => count.size() as u64,
+            })
+            .sum(),
+        Encoding::Ascii => 2 * el.props.len() as u64,
+    }
+}
+
+/// Every element count against what the body (`body` bytes, when known) can hold.
+fn check_counts(
+    elements: &[Element],
+    encoding: Encoding,
+    body: Option<u64>,
+    path: &Path,
+) -> Result<(), SceneError> {
+    let mut need: u128 = 0;
+    for el in elements {
+        let min = min_record_bytes(el, encoding);
+        if min == 0 && el.count > 0 && encoding == Encoding::Ascii {
+            return Err(format_error(
+                path,
+                format!(
+                    "element `{}` has no properties but {} instances: an ASCII instance is a \
+                     line of values",
+                    echo(&el.name),
+                    el.count
+                ),
+            ));
+        }
+        need += u128::from(el.count) * u128::from(min);
+        if let Some(body) = body
+            && need > u128::from(body)
+        {
+            return Err(format_error(
+                path,
+                format!(
+                    "the header declares {} `{}` element(s) of at least {min} bytes each, more \
+                     than the {body} bytes after the header can hold (corrupt count?)",
+                    el.count,
+                    echo(&el.name)
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn find_layout(elements: &[Element], path: &Path) -> Result<Layout, SceneError> {
@@ -458,6 +587,11 @@ impl Body<'_> {
         let mut buf = vec![0u8; 64];
         for (ei, el) in self.elements.iter().enumerate() {
             let fixed = el.fixed_size();
+            if fixed == Some(0) {
+                // Records of no bytes: nothing to read, however many the header claims (a
+                // count of 2^62 must not spin for years).
+                continue;
+            }
             // For a fixed-size vertex record: byte offset and type of x, y and z.
             let xyz_at: Option<[(usize, Scalar); 3]> =
                 (ei == self.layout.vertex && fixed.is_some()).then(|| {
@@ -594,10 +728,7 @@ impl Body<'_> {
                         Property::Scalar { ty, name } => {
                             let t = next(name)?;
                             let v = parse_scalar(*ty, t).ok_or_else(|| {
-                                err(format!(
-                                    "malformed {ty:?} value `{}` for `{name}`",
-                                    String::from_utf8_lossy(t)
-                                ))
+                                err(format!("malformed {ty:?} value `{}` for `{name}`", echo(t)))
                             })?;
                             if ei == self.layout.vertex
                                 && let Some(a) = self.layout.xyz.iter().position(|&x| x == pi)
@@ -608,17 +739,14 @@ impl Body<'_> {
                         Property::List { item, name, .. } => {
                             let t = next(name)?;
                             let len = parse_i64(t).filter(|&l| l >= 0).ok_or_else(|| {
-                                err(format!(
-                                    "malformed list length `{}` for `{name}`",
-                                    String::from_utf8_lossy(t)
-                                ))
+                                err(format!("malformed list length `{}` for `{name}`", echo(t)))
                             })?;
                             for _ in 0..len {
                                 let t = next(name)?;
                                 let v = parse_scalar(*item, t).ok_or_else(|| {
                                     err(format!(
                                         "malformed {item:?} value `{}` in `{name}`",
-                                        String::from_utf8_lossy(t)
+                                        echo(t)
                                     ))
                                 })?;
                                 if ei == self.layout.face && pi == self.layout.indices {
@@ -890,5 +1018,93 @@ element face 2\r\nproperty list uchar int vertex_index\r\nproperty float q\r\nen
         assert_eq!(m.triangles.len(), 1);
         assert_eq!(m.report.dropped_degenerate, 1);
         assert_eq!(m.report.dropped_non_finite, 1);
+    }
+
+    fn tri_header(format: &str, extra: &str) -> Vec<u8> {
+        format!(
+            "ply\nformat {format} 1.0\n{extra}element vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        )
+        .into_bytes()
+    }
+
+    fn tri_body_le(b: &mut Vec<u8>) {
+        for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.push(3);
+        for i in [0i32, 1, 2] {
+            b.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+
+    #[test]
+    fn empty_records_with_a_huge_count_are_skipped_not_spun() {
+        // The hostile 251-byte file: an element of no properties and a count of 2^62.
+        let mut b = tri_header("binary_little_endian", "element junk 4611686018427387904\n");
+        tri_body_le(&mut b);
+        let start = std::time::Instant::now();
+        let m = parse(b).unwrap();
+        assert_eq!(m.indices.len(), 1);
+        assert!(start.elapsed().as_secs() < 5);
+        // In ASCII such an element cannot be written at all.
+        let e = err(tri_header("ascii", "element junk 5\n"));
+        assert!(e.contains("`junk` has no properties"), "{e}");
+    }
+
+    #[test]
+    fn counts_beyond_the_file_length_are_errors_before_reading() {
+        let mut b = tri_header("binary_little_endian", "");
+        tri_body_le(&mut b);
+        let huge = String::from_utf8(b.clone())
+            .unwrap_or_default()
+            .replace("vertex 3", "vertex 4000000000");
+        let bytes = if huge.is_empty() {
+            let mut h = tri_header("binary_little_endian", "").to_vec();
+            let at = h.windows(8).position(|w| w == b"vertex 3").unwrap();
+            h.splice(at..at + 8, b"vertex 4000000000".iter().copied());
+            tri_body_le(&mut h);
+            h
+        } else {
+            huge.into_bytes()
+        };
+        let len = bytes.len() as u64;
+        let e = parse_ply_sized(Cursor::new(bytes), Path::new("t.ply"), Some(len))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("4000000000 `vertex` element(s)") && e.contains("bytes after the header"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn duplicated_declarations_are_errors() {
+        let e = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float x\nend_header\n".to_vec());
+        assert!(
+            e.starts_with("t.ply:5:") && e.contains("`x` of element `vertex` is declared twice"),
+            "{e}"
+        );
+        let e = err(tri_header("ascii", "element vertex 1\nproperty float x\n"));
+        assert!(e.contains("element `vertex` is declared twice"), "{e}");
+    }
+
+    #[test]
+    fn trailing_data_is_an_error() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n\n";
+        assert!(parse(text.as_bytes().to_vec()).is_ok());
+        let e = err(format!("{text}3 0 1 2\n").into_bytes());
+        assert!(
+            e.starts_with("t.ply:15:") && e.contains("after the last element"),
+            "{e}"
+        );
+        let mut b = tri_header("binary_little_endian", "");
+        tri_body_le(&mut b);
+        assert!(parse(b.clone()).is_ok());
+        b.extend_from_slice(b"garbage");
+        let e = err(b);
+        assert!(
+            e.contains("data after the last element, from byte offset"),
+            "{e}"
+        );
     }
 }
