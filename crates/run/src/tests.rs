@@ -88,3 +88,33 @@ fn the_resolved_tree_repeats_the_run() {
     .unwrap();
     assert_eq!(again.config, r.config);
 }
+
+#[test]
+fn sgrt_presets_set_the_traversal_test_builder_and_dram() {
+    for (name, cores, org) in [
+        ("sgrt", 4, rtsim_sgrt::Organisation::Pptrv),
+        ("sgrt-sptrv", 4, rtsim_sgrt::Organisation::Sptrv),
+        ("sgrt-1", 1, rtsim_sgrt::Organisation::Pptrv),
+    ] {
+        let c = build(&[&format!("arch.preset={name}")]).unwrap();
+        assert_eq!(c.arch.sgrt.cores, cores, "{name}");
+        assert_eq!(c.arch.sgrt.organisation, org, "{name}");
+        assert_eq!(c.trace.traversal, Traversal::ShortStack, "{name}");
+        assert_eq!(
+            c.trace.triangle_test,
+            rtsim_trace::TriangleTest::Wald,
+            "{name}"
+        );
+        assert_eq!(c.bvh.builder, rtsim_bvh::Builder::Sweep, "{name}");
+        assert_eq!(c.dram.preset, "lpddr3-1600", "{name}");
+    }
+    // The user's keys win over the preset's, and SGRT keys are validated with their path.
+    let c = build(&["arch.preset=sgrt", "arch.sgrt.cores=2"]).unwrap();
+    assert_eq!(c.arch.sgrt.cores, 2);
+    let e = build(&["arch.preset=sgrt", "arch.sgrt.trv.stacks=0"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("arch.sgrt.trv.stacks"), "{e}");
+    let e = build(&["arch.sgrt.warp=1"]).unwrap_err().to_string();
+    assert!(e.contains("arch.sgrt.warp"), "{e}");
+}

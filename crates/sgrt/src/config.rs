@@ -11,6 +11,7 @@
 //! (`deny_unknown_fields`, every field defaulted) and checked by [`SgrtConfig::validate`],
 //! whose errors name the full key (`arch.sgrt.trv.stacks`) and the allowed range.
 
+use crate::units;
 use rtsim_cache::{CacheLevel, Replacement, WritePolicy};
 use rtsim_config::{ConfigError, Validate, check_range};
 use serde::{Deserialize, Serialize};
@@ -246,11 +247,11 @@ impl Default for TrvConfig {
             input_buffer: 16,
             fifo_entries: 16,
             rau_entries: 16,
-            pre_latency: 1,
+            pre_latency: units::pre_latency(),
             pre_interval: 1,
-            aabb_latency: 9,
-            aabb_interval: 2,
-            post_latency: 2,
+            aabb_latency: units::aabb_latency(),
+            aabb_interval: units::aabb_interval(),
+            post_latency: units::post_latency(),
             post_interval: 1,
             l1: read_only_level(),
         }
@@ -262,8 +263,8 @@ impl Default for IstConfig {
         IstConfig {
             input_buffer: 16,
             rau_entries: 32,
-            latency: 37,
-            interval: 1,
+            latency: units::ist_latency(),
+            interval: units::ist_interval(),
             l1: CacheLevel {
                 size_bytes: 128 * 1024,
                 ways: 4,

@@ -673,7 +673,13 @@ impl Core {
         let r = &mut self.rays[slot as usize];
         let first = unit_of(&r.next);
         let memory = first != Unit::Post;
+        let boxes = match r.next {
+            Step::RootBox { .. } | Step::SiblingRetest { .. } => 1,
+            Step::ChildPair { .. } => 2,
+            _ => 0,
+        };
         r.next = env.step(r);
+        let mut post = u64::from(first == Unit::Post);
         let (steps, active) = match self.org {
             Organisation::Pptrv => (1, 1),
             Organisation::Sptrv => {
@@ -681,6 +687,7 @@ impl Core {
                 if first == Unit::Aabb && unit_of(&r.next) == Unit::Post {
                     r.next = env.step(r);
                     active = 2;
+                    post += 1;
                 }
                 (3, active)
             }
@@ -692,6 +699,9 @@ impl Core {
         trv.stats.steps += u64::from(steps);
         trv.stats.active_steps += u64::from(active);
         trv.stats.passes += 1;
+        trv.stats.pre_ops += u64::from(first == Unit::Pre);
+        trv.stats.boxes += boxes;
+        trv.stats.post_ops += post;
         let (extra, interval) = match self.org {
             Organisation::Pptrv => {
                 let extra = if memory { self.trv_hit } else { 0 };

@@ -60,6 +60,11 @@ pub struct TrvStats {
     pub active_steps: u64,
     /// Entries into the unit's pipelines (SPTRV: passes through the deep pipeline).
     pub passes: u64,
+    /// Operations done, by sub-pipeline: node fetches (TRV_PRE), box tests (TRV_AABB: the
+    /// root's one box, or a child pair's two), stack operations (TRV_POST).
+    pub pre_ops: u64,
+    pub boxes: u64,
+    pub post_ops: u64,
     /// PPTRV sub-pipelines.
     pub pre: PipeStats,
     pub aabb: PipeStats,
