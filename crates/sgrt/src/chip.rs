@@ -250,25 +250,39 @@ impl<'a, M: MemoryPort> Sgrt<'a, M> {
         (self.work.done(), self.work.total())
     }
 
-    /// Simulate T&I cycle `t` (after every cycle ticked so far).
-    pub fn tick(&mut self, t: u64) -> Result<(), SgrtError> {
+    /// Simulate T&I cycle `t` (after every cycle ticked so far). `all`: visit every unit
+    /// (the reference engine) rather than only those whose wake has come.
+    pub fn tick(&mut self, t: u64, all: bool) -> Result<(), SgrtError> {
         debug_assert!(self.now.is_none_or(|n| n < t));
         self.hier.advance_to(t)?;
         self.hier.drain_completions(&mut self.completions);
         for c in self.completions.drain(..) {
             let (core, srp, slot) = untag(c.tag);
+            let core = core as usize;
             if srp {
-                self.shaders[core as usize].load_done(c.ready);
+                self.shaders[core].load_done(c.ready);
+                self.cores[core].shader_wake = t;
             } else {
-                self.cores[core as usize].line_arrived(t, slot);
+                self.cores[core].line_arrived(t, slot);
             }
         }
         let env = self.env;
-        for (core, shader) in self.cores.iter_mut().zip(&mut self.shaders) {
-            core.exits(t, &env)?;
-            core.entries(t, &env, &mut self.hier)?;
-            core.dispatch(t, &env)?;
-            shader.tick(t, core, &mut self.work, env.tracer, &mut self.hier)?;
+        for i in 0..self.cores.len() {
+            let (core, shader) = (&mut self.cores[i], &mut self.shaders[i]);
+            core.exits(t, all, &env)?;
+            core.entries(t, all, &env, &mut self.hier)?;
+            core.dispatch(t, all, &env)?;
+            if all || core.shader_wake <= t {
+                let before = self.work.remaining();
+                shader.tick(t, core, &mut self.work, env.tracer, &mut self.hier)?;
+                core.shader_wake = shader.next_event(t, core, &self.work).unwrap_or(u64::MAX);
+                if self.work.remaining() != before {
+                    // Less work left may let another core's shader take the rest.
+                    for c in &mut self.cores {
+                        c.shader_wake = c.shader_wake.min(t);
+                    }
+                }
+            }
         }
         self.now = Some(t);
         Ok(())
@@ -277,17 +291,13 @@ impl<'a, M: MemoryPort> Sgrt<'a, M> {
     /// The next cycle at which anything can happen (`None`: nothing will).
     pub fn next_event(&self) -> Option<u64> {
         let now = self.now.unwrap_or(0);
-        let mut next = self.hier.next_event().map(|e| e.max(now + 1));
-        let mut at = |e: Option<u64>| {
-            if let Some(e) = e {
-                next = Some(next.map_or(e, |n| n.min(e)));
-            }
-        };
-        for (core, shader) in self.cores.iter().zip(&self.shaders) {
-            at(core.next_event(now, &self.env));
-            at(shader.next_event(now, core, &self.work));
+        let mut next = self.hier.next_event().unwrap_or(u64::MAX);
+        for core in &self.cores {
+            next = next
+                .min(core.next_event(now).unwrap_or(u64::MAX))
+                .min(core.shader_wake);
         }
-        next
+        (next != u64::MAX).then_some(next.max(now + 1))
     }
 
     /// Run until every item has finished, or past `cycle_limit` (then incomplete), calling
@@ -309,7 +319,7 @@ impl<'a, M: MemoryPort> Sgrt<'a, M> {
             if t > limit {
                 break;
             }
-            self.tick(t)?;
+            self.tick(t, engine == Engine::Reference)?;
             self.end = t;
             ticks += 1;
             if ticks & 0xffff == 0 {
@@ -333,6 +343,19 @@ impl<'a, M: MemoryPort> Sgrt<'a, M> {
         let (d, n) = self.progress();
         progress(d, n);
         Ok(())
+    }
+
+    /// A text of the whole observable state (counters with time integrated up to `end`,
+    /// queue and pipeline contents): equal texts mean the engines agree. For the engine tests.
+    #[doc(hidden)]
+    pub fn fingerprint(&self, end: u64) -> String {
+        let mut s = String::new();
+        for (c, sh) in self.cores.iter().zip(&self.shaders) {
+            s += &format!("{:?}|{}|{:?}\n", c.stats_at(end), c.in_flight, sh.stats);
+            s += &c.debug_state();
+        }
+        s += &format!("{:?}", self.hier.all_stats());
+        s
     }
 
     fn stalled(&self, t: u64) -> SgrtError {

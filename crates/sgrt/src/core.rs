@@ -256,8 +256,17 @@ pub(crate) struct Core {
     trv_hit: u64,
     ist_hit: u64,
     aabb_interval: u64,
+    q_lat: u64,
     /// Rays holding a slot.
     pub in_flight: u32,
+    /// Per unit (TRV stages, then the IST, then ray dispatch): the earliest cycle it may act.
+    /// Kept conservative (never later than the unit could act): a unit that acts changes
+    /// other units' wakes where it gives them something to do.
+    wake: Vec<u64>,
+    /// The same for the shader of this core (the chip owns the shader).
+    pub shader_wake: u64,
+    /// Stages per TRV.
+    per_trv: usize,
     pub stats: CoreStats,
 }
 
@@ -338,6 +347,8 @@ impl Core {
             });
         }
         let i = &c.ist;
+        let per_trv = trvs[0].stages.len();
+        let units = trvs.len() * per_trv + 2;
         Ok(Core {
             id,
             org: c.organisation,
@@ -361,9 +372,34 @@ impl Core {
             trv_hit: u64::from(t.l1.hit_latency),
             ist_hit: u64::from(i.l1.hit_latency),
             aabb_interval: u64::from(t.aabb_interval),
+            q_lat: q,
             in_flight: 0,
+            wake: vec![0; units],
+            shader_wake: 0,
+            per_trv,
             stats: CoreStats::default(),
         })
+    }
+
+    /// Unit index of TRV `k`'s stage `i`.
+    #[inline]
+    fn unit(&self, k: usize, i: usize) -> usize {
+        k * self.per_trv + i
+    }
+    #[inline]
+    fn ist_unit(&self) -> usize {
+        self.wake.len() - 2
+    }
+    #[inline]
+    fn rd_unit(&self) -> usize {
+        self.wake.len() - 1
+    }
+    /// Unit `u` may have something to do from `t` on.
+    #[inline]
+    fn wake_at(&mut self, u: usize, t: u64) {
+        if self.wake[u] > t {
+            self.wake[u] = t;
+        }
     }
 
     /// Store a job; its index goes through the buffers.
@@ -416,23 +452,41 @@ impl Core {
         }
     }
 
-    fn ray_ready(&mut self, _t: u64, slot: Slot, back: Back) {
+    fn ray_ready(&mut self, t: u64, slot: Slot, back: Back) {
         match back {
             Back::Trv(i) => {
                 let k = self.trv_of(slot);
                 self.trvs[k].stages[i as usize].ready.push_back(slot);
+                let u = self.unit(k, i as usize);
+                self.wake_at(u, t);
             }
-            Back::Ist => self.ist.stage.ready.push_back(slot),
+            Back::Ist => {
+                self.ist.stage.ready.push_back(slot);
+                let u = self.ist_unit();
+                self.wake_at(u, t);
+            }
+        }
+    }
+
+    /// An entry of TRV `k`'s RAU was given back at `t`: its stages may look up again.
+    fn rau_freed_trv(&mut self, k: usize, t: u64) {
+        for i in 0..self.per_trv {
+            let u = self.unit(k, i);
+            self.wake_at(u, t);
         }
     }
 
     // -----------------------------------------------------------------------------------
     // Exits and routing
 
-    /// Every pipeline's finished rays leave (TRVs in order, then the IST).
-    pub fn exits(&mut self, t: u64, env: &Env<'_>) -> Result<(), SgrtError> {
+    /// Every due pipeline's finished rays leave (TRVs in order, then the IST); `all` visits
+    /// every unit (the reference engine).
+    pub fn exits(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
         for k in 0..self.trvs.len() {
-            for i in 0..self.trvs[k].stages.len() {
+            for i in 0..self.per_trv {
+                if !all && self.wake[self.unit(k, i)] > t {
+                    continue;
+                }
                 while let Some(slot) = self.trvs[k].stages[i].pipe.head(t) {
                     if !self.route(t, slot, false, env)? {
                         self.trvs[k].stages[i].pipe.block(t);
@@ -443,12 +497,15 @@ impl Core {
                 }
             }
         }
-        while let Some(slot) = self.ist.stage.pipe.head(t) {
-            if !self.route(t, slot, true, env)? {
-                self.ist.stage.pipe.block(t);
-                break;
+        let u = self.ist_unit();
+        if all || self.wake[u] <= t {
+            while let Some(slot) = self.ist.stage.pipe.head(t) {
+                if !self.route(t, slot, true, env)? {
+                    self.ist.stage.pipe.block(t);
+                    break;
+                }
+                self.ist.stage.pipe.leave(t);
             }
-            self.ist.stage.pipe.leave(t);
         }
         Ok(())
     }
@@ -465,26 +522,29 @@ impl Core {
         let r = &self.rays[slot as usize];
         let unit = unit_of(&r.next);
         let k = self.trv_of(slot);
-        let res = match unit {
+        let (res, u) = match unit {
             Unit::Done => return self.finish(t, slot, env),
             Unit::Ist if from_ist => {
                 self.ist.stats.loops += 1;
-                self.ist.looped.push(t, slot)
+                (self.ist.looped.push(t, slot), self.ist_unit())
             }
             Unit::Ist => {
                 let pushed = self.ist.stage.input.push(t, slot);
                 if pushed.is_ok() {
                     self.ist.stats.arrivals += 1;
                 }
-                pushed
+                (pushed, self.ist_unit())
             }
             u => {
                 let i = self.stage_index(u);
-                self.trvs[k].stages[i].input.push(t, slot)
+                (self.trvs[k].stages[i].input.push(t, slot), self.unit(k, i))
             }
         };
         match res {
-            Ok(()) => Ok(true),
+            Ok(()) => {
+                self.wake_at(u, t + self.q_lat);
+                Ok(true)
+            }
             Err(PushError::Full(_)) => Ok(false),
             Err(PushError::Link(e)) => Err(e.into()),
         }
@@ -495,7 +555,8 @@ impl Core {
         let r = &self.rays[slot as usize];
         let job = r.job;
         match self.hit_fifo.push(t, job) {
-            Ok(()) => {}
+            // The shader counts the rays still in the T&I unit: it may act now.
+            Ok(()) => self.shader_wake = self.shader_wake.min(t),
             Err(PushError::Full(_)) => return Ok(false),
             Err(PushError::Link(e)) => return Err(e.into()),
         }
@@ -522,6 +583,9 @@ impl Core {
         trv.held -= 1;
         trv.free.push(slot);
         self.in_flight -= 1;
+        // A free short stack: dispatch may go on.
+        let rd = self.rd_unit();
+        self.wake_at(rd, t);
         Ok(true)
     }
 
@@ -532,15 +596,28 @@ impl Core {
     pub fn entries<M: MemoryPort>(
         &mut self,
         t: u64,
+        all: bool,
         env: &Env<'_>,
         hier: &mut Hierarchy<M>,
     ) -> Result<(), SgrtError> {
         for k in 0..self.trvs.len() {
-            for i in 0..self.trvs[k].stages.len() {
-                self.enter_trv(t, k, i, env, hier)?;
+            for i in 0..self.per_trv {
+                let u = self.unit(k, i);
+                if all || self.wake[u] <= t {
+                    self.enter_trv(t, k, i, env, hier)?;
+                    let trv = &self.trvs[k];
+                    let boxes = (self.org == Organisation::Sptrv).then_some(trv.aabb_free);
+                    self.wake[u] = self.stage_wake(&trv.stages[i], None, &trv.rau, boxes, t, env);
+                }
             }
         }
-        self.enter_ist(t, env, hier)
+        let u = self.ist_unit();
+        if all || self.wake[u] <= t {
+            self.enter_ist(t, env, hier)?;
+            let ist = &self.ist;
+            self.wake[u] = self.stage_wake(&ist.stage, Some(&ist.looped), &ist.rau, None, t, env);
+        }
+        Ok(())
     }
 
     /// The candidate of a stage at `t`: a ray back from the RAU, a lookup in progress, or the
@@ -597,6 +674,7 @@ impl Core {
                 let trv = &mut self.trvs[k];
                 trv.stages[i].ready.pop_front();
                 trv.rau.release(t);
+                self.rau_freed_trv(k, t);
                 self.start_trv_pass(t, k, i, slot, env);
                 return Ok(());
             }
@@ -637,6 +715,10 @@ impl Core {
         )?;
         if started {
             stage.input.pop(t)?;
+        }
+        if matches!(looked, Looked::Hit) {
+            // The lookup's RAU entry came back.
+            self.rau_freed_trv(k, t);
         }
         self.after_lookup(t, slot, looked, Back::Trv(i as u8), |core, t, slot| {
             core.start_trv_pass(t, k, i, slot, env)
@@ -798,7 +880,41 @@ impl Core {
 
     /// Ray dispatch: the ray buffer's head goes to the next TRV (round robin) with a free
     /// short stack and room in the queue of its first step; at most one ray per cycle.
-    pub fn dispatch(&mut self, t: u64, env: &Env<'_>) -> Result<(), SgrtError> {
+    pub fn dispatch(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
+        let rd = self.rd_unit();
+        if !all && self.wake[rd] > t {
+            return Ok(());
+        }
+        self.dispatch_one(t, env)?;
+        self.wake[rd] = self.rd_wake();
+        Ok(())
+    }
+
+    /// When dispatch can next act: the head of the ray buffer is visible and a TRV can take
+    /// it (`u64::MAX`: it waits for a ray or a free short stack).
+    fn rd_wake(&self) -> u64 {
+        let Some(v) = self.ray_fifo.next_ready() else {
+            return u64::MAX;
+        };
+        let first = self.stage_index(Unit::Aabb);
+        if self
+            .trvs
+            .iter()
+            .any(|trv| !trv.free.is_empty() && !trv.stages[first].input.is_full())
+        {
+            v
+        } else {
+            u64::MAX
+        }
+    }
+
+    /// The shader (or feeder) put a ray into the ray buffer at `t`.
+    pub fn ray_pushed(&mut self, t: u64) {
+        let rd = self.rd_unit();
+        self.wake_at(rd, t + self.q_lat);
+    }
+
+    fn dispatch_one(&mut self, t: u64, env: &Env<'_>) -> Result<(), SgrtError> {
         let Some(&job) = self.ray_fifo.peek(t) else {
             return Ok(());
         };
@@ -842,6 +958,10 @@ impl Core {
             self.in_flight += 1;
             self.stats.rd.dispatched += 1;
             self.rd_next = (k as u32 + 1) % n;
+            let u = self.unit(k, first);
+            self.wake_at(u, t + self.q_lat);
+            // Room in the ray buffer for the shader.
+            self.shader_wake = self.shader_wake.min(t);
             return Ok(());
         }
         Ok(())
@@ -850,45 +970,17 @@ impl Core {
     // -----------------------------------------------------------------------------------
     // Time
 
-    /// The earliest cycle after `now` at which this T&I unit can do something without new
-    /// input from outside it, `None` if it waits for others (a line, a free buffer entry).
-    pub fn next_event(&self, now: u64, env: &Env<'_>) -> Option<u64> {
-        let mut next = u64::MAX;
-        let sptrv = self.org == Organisation::Sptrv;
-        for trv in &self.trvs {
-            let boxes = sptrv.then_some(trv.aabb_free);
-            for stage in &trv.stages {
-                self.stage_event(stage, None, &trv.rau, boxes, now, env, &mut next);
-            }
-        }
-        let ist = &self.ist;
-        self.stage_event(
-            &ist.stage,
-            Some(&ist.looped),
-            &ist.rau,
-            None,
-            now,
-            env,
-            &mut next,
-        );
-        // Dispatch: a ray in the buffer and a TRV that can take it.
-        if let Some(v) = self.ray_fifo.next_ready() {
-            let first = self.stage_index(Unit::Aabb);
-            if self
-                .trvs
-                .iter()
-                .any(|trv| !trv.free.is_empty() && !trv.stages[first].input.is_full())
-            {
-                next = next.min(v);
-            }
-        }
+    /// The earliest cycle after `now` at which this T&I unit may do something, `None` if it
+    /// waits for others (a line, a free buffer entry).
+    pub fn next_event(&self, now: u64) -> Option<u64> {
+        let next = self.wake.iter().copied().min().unwrap_or(u64::MAX);
         (next != u64::MAX).then_some(next.max(now + 1))
     }
 
-    /// A stage's next event: its head's exit (or the next cycle while it waits at a full
-    /// queue), and the entry of its candidate when nothing but time stands in its way.
-    #[allow(clippy::too_many_arguments)]
-    fn stage_event(
+    /// A stage's wake after acting at `now`: its head's exit (or the next cycle while it waits
+    /// at a full queue), and the entry of its candidate when nothing but time stands in its
+    /// way.
+    fn stage_wake(
         &self,
         stage: &Stage,
         looped: Option<&Link<Slot>>,
@@ -896,12 +988,11 @@ impl Core {
         box_free: Option<u64>,
         now: u64,
         env: &Env<'_>,
-        next: &mut u64,
-    ) {
-        let mut at = |c: u64| *next = (*next).min(c);
+    ) -> u64 {
+        let mut next = u64::MAX;
+        let mut at = |c: u64| next = next.min(c);
         let Some(entry) = stage.pipe.entry_at() else {
-            at(now + 1);
-            return;
+            return now + 1;
         };
         if let Some(e) = stage.pipe.next_exit() {
             at(e);
@@ -912,21 +1003,20 @@ impl Core {
         };
         if let Some(&s) = stage.ready.front() {
             at(entry.max(boxes(s)));
-            return;
-        }
-        if let Some(p) = stage.partial {
+        } else if let Some(p) = stage.partial {
             at(entry.max(stage.retry_at).max(boxes(p.slot)));
-            return;
-        }
-        for q in [looped, Some(&stage.input)].into_iter().flatten() {
-            let (Some(v), Some(&slot)) = (q.next_ready(), q.peek(u64::MAX)) else {
-                continue;
-            };
-            let memory = env.lines(&self.rays[slot as usize].next).is_some();
-            if !memory || rau.has_room() {
-                at(v.max(entry).max(stage.retry_at).max(boxes(slot)));
+        } else {
+            for q in [looped, Some(&stage.input)].into_iter().flatten() {
+                let (Some(v), Some(&slot)) = (q.next_ready(), q.peek(u64::MAX)) else {
+                    continue;
+                };
+                let memory = env.lines(&self.rays[slot as usize].next).is_some();
+                if !memory || rau.has_room() {
+                    at(v.max(entry).max(stage.retry_at).max(boxes(slot)));
+                }
             }
         }
+        next
     }
 
     /// Counters of the units, with time accounted up to `end`.
@@ -957,6 +1047,33 @@ impl Core {
         is.mem = self.ist.stage.mem.clone();
         is.rau = self.ist.rau.stats_at(end);
         s.ist += is;
+        s
+    }
+
+    /// Queue and pipeline contents, for [`crate::Sgrt::fingerprint`].
+    pub fn debug_state(&self) -> String {
+        let mut s = String::new();
+        for (k, trv) in self.trvs.iter().enumerate() {
+            for (i, st) in trv.stages.iter().enumerate() {
+                s += &format!(
+                    "trv{k}.{i}: in {} ready {:?} partial {:?} pipe {} blocked {}\n",
+                    st.input.len(),
+                    st.ready,
+                    st.partial.map(|p| p.slot),
+                    st.pipe.len(),
+                    st.pipe.is_blocked()
+                );
+            }
+        }
+        s += &format!(
+            "ist: in {} loop {} ready {:?} pipe {}; rays {} hits {}\n",
+            self.ist.stage.input.len(),
+            self.ist.looped.len(),
+            self.ist.stage.ready,
+            self.ist.stage.pipe.len(),
+            self.ray_fifo.len(),
+            self.hit_fifo.len()
+        );
         s
     }
 

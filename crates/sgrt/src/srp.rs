@@ -164,6 +164,7 @@ impl Shader {
             match core.ray_fifo.push(t, job) {
                 Ok(()) => {
                     self.pending.pop_front();
+                    core.ray_pushed(t);
                 }
                 Err(PushError::Full(_)) => break,
                 Err(PushError::Link(e)) => return Err(e.into()),
@@ -196,6 +197,7 @@ impl Shader {
                     PushError::Full(_) => unreachable!("room was reserved when the kernel began"),
                     PushError::Link(e) => SgrtError::from(e),
                 })?;
+                core.ray_pushed(t);
             }
             self.charge.rays = k.rays;
         }
