@@ -269,9 +269,7 @@ impl<'a, M: MemoryPort> Sgrt<'a, M> {
         let env = self.env;
         for i in 0..self.cores.len() {
             let (core, shader) = (&mut self.cores[i], &mut self.shaders[i]);
-            core.exits(t, all, &env)?;
-            core.entries(t, all, &env, &mut self.hier)?;
-            core.dispatch(t, all, &env)?;
+            core.tick(t, all, &env, &mut self.hier)?;
             if all || core.shader_wake <= t {
                 let before = self.work.remaining();
                 shader.tick(t, core, &mut self.work, env.tracer, &mut self.hier)?;
@@ -374,7 +372,7 @@ impl<'a, M: MemoryPort> Sgrt<'a, M> {
     /// End of the run: let the memory path finish what is in flight (writes) and hand over
     /// the counters and results.
     pub fn finish(mut self) -> Result<SgrtResult<M>, SgrtError> {
-        let end = self.end;
+        let end = self.now.unwrap_or(0).max(self.end);
         let mut cores = Vec::with_capacity(self.cores.len());
         let mut total = CoreStats::default();
         for (core, shader) in self.cores.iter().zip(&self.shaders) {

@@ -96,9 +96,11 @@ pub struct SgrtConfig {
     pub trv: TrvConfig,
     pub ist: IstConfig,
     /// The L2 shared by a core's TRVs (the IST has its own L1 straight to memory). Default
-    /// 128 KB, 2-way, 8 banks, 64 B lines, hit 20 cycles (SGRT §4.1 and §4.2); MSHRs 64
-    /// (assumed: one per ray the four TRVs can hold), write buffer 8 (assumed: the T&I unit
-    /// only reads).
+    /// 128 KB, 2-way, 8 banks, 64 B lines, hit 20 cycles (SGRT §4.1 and §4.2); MSHRs 16
+    /// (assumed: with the IST L1's 16, four cores keep at most 128 lines in flight, what
+    /// the two LPDDR3 channels' read queues hold (2 × 64), so the memory controller's queue is
+    /// never the limit; 28 lines in flight already cover LPDDR3's bandwidth × latency); write
+    /// buffer 8 (assumed: the T&I unit only reads).
     pub l2: CacheLevel,
     pub srp: SrpConfig,
 }
@@ -166,7 +168,7 @@ pub struct IstConfig {
     pub interval: u32,
     /// The IST's L1. Default 128 KB, 4-way, 64 B lines, hit 1 cycle (SGRT §4.1); 2 banks
     /// (assumed: a 48-byte Wald record that straddles two lines is read in one cycle); MSHRs
-    /// 64 (assumed: one per ray of the core); write buffer 4 (assumed: read only).
+    /// 16 (assumed: see `arch.sgrt.l2`); write buffer 4 (assumed: read only).
     pub l1: CacheLevel,
 }
 
@@ -214,7 +216,7 @@ impl Default for SgrtConfig {
                 ways: 2,
                 banks: 8,
                 hit_latency: 20,
-                mshrs: 64,
+                mshrs: 16,
                 write_buffer: 8,
                 ..read_only_level()
             },
@@ -268,7 +270,7 @@ impl Default for IstConfig {
             l1: CacheLevel {
                 size_bytes: 128 * 1024,
                 ways: 4,
-                mshrs: 64,
+                mshrs: 16,
                 ..read_only_level()
             },
         }

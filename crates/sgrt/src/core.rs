@@ -263,6 +263,8 @@ pub(crate) struct Core {
     /// Kept conservative (never later than the unit could act): a unit that acts changes
     /// other units' wakes where it gives them something to do.
     wake: Vec<u64>,
+    /// The least of `wake`.
+    min_wake: u64,
     /// The same for the shader of this core (the chip owns the shader).
     pub shader_wake: u64,
     /// Stages per TRV.
@@ -375,6 +377,7 @@ impl Core {
             q_lat: q,
             in_flight: 0,
             wake: vec![0; units],
+            min_wake: 0,
             shader_wake: 0,
             per_trv,
             stats: CoreStats::default(),
@@ -399,7 +402,27 @@ impl Core {
     fn wake_at(&mut self, u: usize, t: u64) {
         if self.wake[u] > t {
             self.wake[u] = t;
+            self.min_wake = self.min_wake.min(t);
         }
+    }
+
+    /// One cycle of the T&I unit: finished rays leave, pipelines take rays, dispatch hands one
+    /// on; only units whose wake has come (every unit with `all`, the reference engine).
+    pub fn tick<M: MemoryPort>(
+        &mut self,
+        t: u64,
+        all: bool,
+        env: &Env<'_>,
+        hier: &mut Hierarchy<M>,
+    ) -> Result<(), SgrtError> {
+        if !all && self.min_wake > t {
+            return Ok(());
+        }
+        self.exits(t, all, env)?;
+        self.entries(t, all, env, hier)?;
+        self.dispatch(t, all, env)?;
+        self.min_wake = self.wake.iter().copied().min().unwrap_or(u64::MAX);
+        Ok(())
     }
 
     /// Store a job; its index goes through the buffers.
@@ -481,7 +504,7 @@ impl Core {
 
     /// Every due pipeline's finished rays leave (TRVs in order, then the IST); `all` visits
     /// every unit (the reference engine).
-    pub fn exits(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
+    fn exits(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
         for k in 0..self.trvs.len() {
             for i in 0..self.per_trv {
                 if !all && self.wake[self.unit(k, i)] > t {
@@ -522,27 +545,34 @@ impl Core {
         let r = &self.rays[slot as usize];
         let unit = unit_of(&r.next);
         let k = self.trv_of(slot);
-        let (res, u) = match unit {
+        // A queue that had a head keeps it: only a ray into an empty queue can wake its unit.
+        let (res, u, was_empty) = match unit {
             Unit::Done => return self.finish(t, slot, env),
             Unit::Ist if from_ist => {
                 self.ist.stats.loops += 1;
-                (self.ist.looped.push(t, slot), self.ist_unit())
+                let empty = self.ist.looped.is_empty();
+                (self.ist.looped.push(t, slot), self.ist_unit(), empty)
             }
             Unit::Ist => {
+                let empty = self.ist.stage.input.is_empty();
                 let pushed = self.ist.stage.input.push(t, slot);
                 if pushed.is_ok() {
                     self.ist.stats.arrivals += 1;
                 }
-                (pushed, self.ist_unit())
+                (pushed, self.ist_unit(), empty)
             }
             u => {
                 let i = self.stage_index(u);
-                (self.trvs[k].stages[i].input.push(t, slot), self.unit(k, i))
+                let q = &mut self.trvs[k].stages[i].input;
+                let empty = q.is_empty();
+                (q.push(t, slot), self.unit(k, i), empty)
             }
         };
         match res {
             Ok(()) => {
-                self.wake_at(u, t + self.q_lat);
+                if was_empty {
+                    self.wake_at(u, t + self.q_lat);
+                }
                 Ok(true)
             }
             Err(PushError::Full(_)) => Ok(false),
@@ -593,7 +623,7 @@ impl Core {
     // Entries
 
     /// Every pipeline takes its next ray, if it can (TRVs in order, then the IST).
-    pub fn entries<M: MemoryPort>(
+    fn entries<M: MemoryPort>(
         &mut self,
         t: u64,
         all: bool,
@@ -673,31 +703,28 @@ impl Core {
             Candidate::Ready(slot) => {
                 let trv = &mut self.trvs[k];
                 trv.stages[i].ready.pop_front();
-                trv.rau.release(t);
-                self.rau_freed_trv(k, t);
+                if trv.rau.release(t) {
+                    self.rau_freed_trv(k, t);
+                }
                 self.start_trv_pass(t, k, i, slot, env);
                 return Ok(());
             }
             Candidate::Partial(p) => p,
-            Candidate::Queue(slot, _) => {
-                if env.lines(&self.rays[slot as usize].next).is_none() {
-                    self.trvs[k].stages[i].input.pop(t)?;
-                    self.start_trv_pass(t, k, i, slot, env);
-                    return Ok(());
-                }
-                if !self.trvs[k].rau.has_room() {
-                    return Ok(());
-                }
-                Partial {
-                    slot,
-                    next_line: 0,
-                    misses: 0,
-                }
-            }
+            Candidate::Queue(slot, _) => Partial {
+                slot,
+                next_line: 0,
+                misses: 0,
+            },
         };
-        let span = env
-            .lines(&self.rays[slot as usize].next)
-            .expect("a lookup is only started for a step that reads memory");
+        let Some(span) = env.lines(&self.rays[slot as usize].next) else {
+            // A stack operation: no memory.
+            self.trvs[k].stages[i].input.pop(t)?;
+            self.start_trv_pass(t, k, i, slot, env);
+            return Ok(());
+        };
+        if p.next_line == 0 && !self.trvs[k].rau.has_room() {
+            return Ok(());
+        }
         let leaf = self.trv_leaf0 + k;
         let tagv = tag(self.id, false, slot);
         let trv = &mut self.trvs[k];
@@ -715,10 +742,6 @@ impl Core {
         )?;
         if started {
             stage.input.pop(t)?;
-        }
-        if matches!(looked, Looked::Hit) {
-            // The lookup's RAU entry came back.
-            self.rau_freed_trv(k, t);
         }
         self.after_lookup(t, slot, looked, Back::Trv(i as u8), |core, t, slot| {
             core.start_trv_pass(t, k, i, slot, env)
@@ -818,7 +841,8 @@ impl Core {
         let (p, from_loop) = match cand {
             Candidate::Ready(slot) => {
                 self.ist.stage.ready.pop_front();
-                self.ist.rau.release(t);
+                // The IST's own wake is recomputed after this entry.
+                let _ = self.ist.rau.release(t);
                 self.start_ist_pass(t, slot, env);
                 return Ok(());
             }
@@ -880,7 +904,7 @@ impl Core {
 
     /// Ray dispatch: the ray buffer's head goes to the next TRV (round robin) with a free
     /// short stack and room in the queue of its first step; at most one ray per cycle.
-    pub fn dispatch(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
+    fn dispatch(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
         let rd = self.rd_unit();
         if !all && self.wake[rd] > t {
             return Ok(());
@@ -959,7 +983,9 @@ impl Core {
             self.stats.rd.dispatched += 1;
             self.rd_next = (k as u32 + 1) % n;
             let u = self.unit(k, first);
-            self.wake_at(u, t + self.q_lat);
+            if self.trvs[k].stages[first].input.len() == 1 {
+                self.wake_at(u, t + self.q_lat);
+            }
             // Room in the ray buffer for the shader.
             self.shader_wake = self.shader_wake.min(t);
             return Ok(());
@@ -973,8 +999,7 @@ impl Core {
     /// The earliest cycle after `now` at which this T&I unit may do something, `None` if it
     /// waits for others (a line, a free buffer entry).
     pub fn next_event(&self, now: u64) -> Option<u64> {
-        let next = self.wake.iter().copied().min().unwrap_or(u64::MAX);
-        (next != u64::MAX).then_some(next.max(now + 1))
+        (self.min_wake != u64::MAX).then_some(self.min_wake.max(now + 1))
     }
 
     /// A stage's wake after acting at `now`: its head's exit (or the next cycle while it waits
@@ -1010,8 +1035,7 @@ impl Core {
                 let (Some(v), Some(&slot)) = (q.next_ready(), q.peek(u64::MAX)) else {
                     continue;
                 };
-                let memory = env.lines(&self.rays[slot as usize].next).is_some();
-                if !memory || rau.has_room() {
+                if rau.has_room() || env.lines(&self.rays[slot as usize].next).is_none() {
                     at(v.max(entry).max(stage.retry_at).max(boxes(slot)));
                 }
             }
@@ -1144,6 +1168,7 @@ fn lookup<M: MemoryPort>(
     stage.partial = None;
     stage.mem.lookups += 1;
     if p.misses == 0 {
+        // The entry was taken by this lookup: nobody waited for it.
         rau.release(t);
         return Ok((Looked::Hit, starting));
     }

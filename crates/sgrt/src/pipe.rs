@@ -185,11 +185,14 @@ impl Rau {
         self.stats.parks += 1;
     }
 
-    /// A ray leaves its entry (it re-entered its pipeline, or its lookup hit) at `t`.
+    /// A ray leaves its entry (it re-entered its pipeline, or its lookup hit) at `t`;
+    /// returns whether the RAU was full (lookups waiting for room may go on).
     #[inline]
-    pub fn release(&mut self, t: u64) {
+    pub fn release(&mut self, t: u64) -> bool {
         self.account(t);
+        let was_full = self.held == self.capacity;
         self.held -= 1;
+        was_full
     }
 
     pub fn held(&self) -> u32 {
