@@ -118,3 +118,31 @@ fn sgrt_presets_set_the_traversal_test_builder_and_dram() {
     let e = build(&["arch.sgrt.warp=1"]).unwrap_err().to_string();
     assert!(e.contains("arch.sgrt.warp"), "{e}");
 }
+
+#[test]
+fn a_viewpoint_replaces_the_camera_and_an_unknown_one_is_named() {
+    // The shared scenes, as the scene crate's tests find them.
+    let dir = std::env::var("RTSIM_SCENE_DIR")
+        .unwrap_or_else(|_| format!("{}/../../../shared/scenes", env!("CARGO_MANIFEST_DIR")));
+    let dir = format!("scene.dir=\"{dir}\"");
+    let r = resolve(
+        &inputs(&["scene.name=sibenik", "scene.viewpoint=3", &dir]),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(r.scene.camera, r.scene.viewpoints[2]);
+    let e = resolve(
+        &inputs(&["scene.name=sibenik", "scene.viewpoint=6", &dir]),
+        &mut |_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("scene.viewpoint") && e.contains("1..=5"), "{e}");
+    let e = resolve(&inputs(&["scene.viewpoint=1"]), &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("scene.viewpoint") && e.contains("no [[viewpoint]]"),
+        "{e}"
+    );
+}
