@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod bvh_stats;
 pub mod cache;
+pub mod compare;
 pub mod dram;
 pub mod export;
 pub mod render;
@@ -24,6 +25,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Dram(a) => dram::run(a),
         Command::Cache(a) => cache::run(a),
+        Command::Compare(a) => compare::run(a),
     }
 }
 

@@ -29,6 +29,13 @@ pub struct SimulateArgs {
     /// Architecture preset (`arch.preset`): functional, and the chip presets (see README).
     #[arg(long)]
     pub arch: Option<String>,
+    #[command(flatten)]
+    pub frame: FrameArgs,
+}
+
+/// The frame and timing flags `simulate` and `compare` share.
+#[derive(Debug, Args, Clone)]
+pub struct FrameArgs {
     /// Workload: primary, ao, diffuse, path, specular.
     #[arg(long)]
     pub workload: Option<String>,
@@ -51,6 +58,52 @@ pub struct SimulateArgs {
     /// Output directory.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+}
+
+impl FrameArgs {
+    /// The flags as dotted keys.
+    pub fn flags(&self) -> Result<Vec<Flag>> {
+        if let Some(w) = &self.window
+            && w.len() != 4
+        {
+            anyhow::bail!("--window takes four numbers, X0,Y0,X1,Y1 (got {})", w.len());
+        }
+        let mut flags: Vec<Flag> = Vec::new();
+        let mut s = |k: &'static str, v: Option<Value>| {
+            if let Some(v) = v {
+                flags.push((k, v));
+            }
+        };
+        s("workload.kind", self.workload.clone().map(Value::String));
+        s(
+            "workload.width",
+            self.width.map(|v| Value::Integer(v.into())),
+        );
+        s(
+            "workload.height",
+            self.height.map(|v| Value::Integer(v.into())),
+        );
+        s("workload.spp", self.spp.map(|v| Value::Integer(v.into())));
+        s(
+            "sim.window",
+            self.window
+                .as_ref()
+                .map(|w| Value::Array(w.iter().map(|&v| Value::Integer(v.into())).collect())),
+        );
+        s(
+            "sim.cycle_limit",
+            self.cycle_limit
+                .map(|c| Value::Integer(c.min(i64::MAX as u64) as i64)),
+        );
+        s("sim.mode", self.mode.clone().map(Value::String));
+        s(
+            "output.dir",
+            self.out
+                .as_ref()
+                .map(|o| Value::String(o.display().to_string())),
+        );
+        Ok(flags)
+    }
 }
 
 /// What an architecture model produced for a frame.
@@ -91,46 +144,10 @@ pub mod erased {
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
-    if let Some(w) = &args.window
-        && w.len() != 4
-    {
-        anyhow::bail!("--window takes four numbers, X0,Y0,X1,Y1 (got {})", w.len());
+    let mut flags = args.frame.flags()?;
+    if let Some(a) = &args.arch {
+        flags.push(("arch.preset", Value::String(a.clone())));
     }
-    let mut flags: Vec<Flag> = Vec::new();
-    let mut s = |k: &'static str, v: Option<Value>| {
-        if let Some(v) = v {
-            flags.push((k, v));
-        }
-    };
-    s("arch.preset", args.arch.clone().map(Value::String));
-    s("workload.kind", args.workload.clone().map(Value::String));
-    s(
-        "workload.width",
-        args.width.map(|v| Value::Integer(v.into())),
-    );
-    s(
-        "workload.height",
-        args.height.map(|v| Value::Integer(v.into())),
-    );
-    s("workload.spp", args.spp.map(|v| Value::Integer(v.into())));
-    s(
-        "sim.window",
-        args.window
-            .as_ref()
-            .map(|w| Value::Array(w.iter().map(|&v| Value::Integer(v.into())).collect())),
-    );
-    s(
-        "sim.cycle_limit",
-        args.cycle_limit
-            .map(|c| Value::Integer(c.min(i64::MAX as u64) as i64)),
-    );
-    s("sim.mode", args.mode.clone().map(Value::String));
-    s(
-        "output.dir",
-        args.out
-            .as_ref()
-            .map(|o| Value::String(o.display().to_string())),
-    );
     let session = session::open(&args.scene, &flags, false)?;
     let preset = session.resolved.config.arch.preset.clone();
     let out = match preset.as_str() {
