@@ -178,10 +178,11 @@ pub struct IstConfig {
 pub struct SrpConfig {
     /// Sustained operations per SRP cycle over a ray-generation or shading kernel, where an
     /// operation is one entry of `rtsim_trace::ops` (measured per kernel), in (0, 10000].
-    /// Default 6.536 (derived from SGRT Table 3: Sibenik primary rays, untextured, run at
-    /// 182.11 Mrays/s on four 1 GHz SRPs, i.e. 21.96 SRP cycles per ray; a primary ray's
-    /// camera-ray and hit-shading kernels are 137 operations; with `packet_overhead_cycles` =
-    /// 32 per kernel launch (2 launches per 64 rays: 1 cycle per ray), 137 / 20.96 = 6.536).
+    /// Default 6.678 (derived from SGRT Table 3: Sibenik primary rays, untextured, run at
+    /// 182.11 Mrays/s on four 1 GHz SRPs, i.e. 21.965 SRP cycles per ray; a primary ray's
+    /// camera-ray and hit-shading kernels are 140 operations; with `packet_overhead_cycles` =
+    /// 32 per kernel launch (2 launches per 64 rays: 1 cycle per ray), 140 / 20.965 = 6.678;
+    /// a test checks it).
     pub ops_per_cycle: f64,
     /// SRP cycles per kernel launch on a packet (VLIW control, CGRA configuration, software
     /// pipeline prologue and epilogue), 0..=100000. Default 32 (assumed: SGRT §3.4.3 sizes
@@ -280,7 +281,7 @@ impl Default for IstConfig {
 impl Default for SrpConfig {
     fn default() -> Self {
         SrpConfig {
-            ops_per_cycle: 6.536,
+            ops_per_cycle: 6.678,
             packet_overhead_cycles: 32,
             dcache: CacheLevel {
                 size_bytes: 4 * 1024,

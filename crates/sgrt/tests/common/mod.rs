@@ -38,8 +38,22 @@ pub fn setup(
     spp: u32,
     entries: u32,
 ) -> Setup {
+    setup_leaves(scene, kind, width, height, spp, entries, 4)
+}
+
+/// [`setup`] with leaves of at most `max_leaf` triangles.
+pub fn setup_leaves(
+    scene: Scene,
+    kind: WorkloadKind,
+    width: u32,
+    height: u32,
+    spp: u32,
+    entries: u32,
+    max_leaf: u32,
+) -> Setup {
     let bvh_cfg = BvhConfig {
         builder: Builder::Sweep,
+        max_leaf_size: max_leaf,
         ..BvhConfig::default()
     };
     let bvh = rtsim_bvh::build(&scene.triangles, &bvh_cfg, NodeOrder::DepthFirst).unwrap();
@@ -90,8 +104,19 @@ pub fn fixed(c: &SgrtConfig, latency: u64) -> FixedLatency {
 
 /// Run the frame of `s` on the chip of `c` over LPDDR3.
 pub fn run_frame(s: &Setup, c: &SgrtConfig, engine: Engine) -> SgrtResult<Dram> {
-    let integ = Integrator::new(&s.scene, &s.tracer, s.params.clone());
     let pixels: Vec<u32> = (0..s.params.width * s.params.height).collect();
+    run_pixels(s, c, engine, pixels, lpddr3(c))
+}
+
+/// Run `pixels` of the frame of `s` on the chip of `c` over `memory`.
+pub fn run_pixels<M: rtsim_core::MemoryPort>(
+    s: &Setup,
+    c: &SgrtConfig,
+    engine: Engine,
+    pixels: Vec<u32>,
+    memory: M,
+) -> SgrtResult<M> {
+    let integ = Integrator::new(&s.scene, &s.tracer, s.params.clone());
     let timed = Input::timed_kinds(s.params.kind, c.shader);
     let mut chip = Sgrt::new(
         c,
@@ -102,7 +127,7 @@ pub fn run_frame(s: &Setup, c: &SgrtConfig, engine: Engine) -> SgrtResult<Dram> 
             pixels,
             timed,
         },
-        lpddr3(c),
+        memory,
         1,
     )
     .unwrap();
