@@ -416,8 +416,10 @@ mod tests {
             e.contains("arch.sgrt.trv.fifo_entries") && e.contains("16..=4096"),
             "{e}"
         );
-        let mut c = SgrtConfig::default();
-        c.cores = 0;
+        let c = SgrtConfig {
+            cores: 0,
+            ..SgrtConfig::default()
+        };
         let e = c.validate().unwrap_err().to_string();
         assert!(e.contains("arch.sgrt.cores") && e.contains("1..=64"), "{e}");
         let mut c = SgrtConfig::default();
