@@ -307,7 +307,7 @@ pub fn resolve(inputs: &Inputs, note: &mut dyn FnMut(&str)) -> Result<Resolved, 
             )
             .into());
         };
-        scene.camera = cam.clone();
+        scene.camera = *cam;
     }
     for line in scene.report.log_lines() {
         note(&format!("scene `{}`: {line}", scene.name));
