@@ -7,12 +7,6 @@ use common::*;
 use rtsim_sgrt::{Engine, Organisation, SgrtConfig};
 use rtsim_trace::WorkloadKind;
 
-fn bits(p: &[rtsim_trace::PixelResult]) -> Vec<[u32; 3]> {
-    p.iter()
-        .map(|p| p.color.to_array().map(f32::to_bits))
-        .collect()
-}
-
 #[test]
 fn images_and_counters_equal_the_functional_tracer() {
     for kind in [

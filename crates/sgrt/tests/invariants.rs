@@ -8,12 +8,6 @@ use common::*;
 use rtsim_sgrt::{Engine, Input, Organisation, Sgrt, SgrtConfig};
 use rtsim_trace::{Integrator, Kernel, Next, Query, RayCounters, WorkloadKind};
 
-fn bits(p: &[rtsim_trace::PixelResult]) -> Vec<[u32; 3]> {
-    p.iter()
-        .map(|p| p.color.to_array().map(f32::to_bits))
-        .collect()
-}
-
 /// Per ray, SPTRV's steps are three per pass and every pass does at least one of the
 /// operations PPTRV does one step each for: PPTRV ≤ SPTRV. Checked ray by ray (one pixel,
 /// i.e. one camera ray and one diffuse ray, at a time), with a short stack of 2 so restarts

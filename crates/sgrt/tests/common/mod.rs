@@ -145,3 +145,10 @@ pub fn functional(s: &Setup) -> (Vec<rtsim_trace::PixelResult>, rtsim_trace::Fra
         .collect();
     (px, stats)
 }
+
+/// Pixel colours as bits, for exact comparison.
+pub fn bits(p: &[rtsim_trace::PixelResult]) -> Vec<[u32; 3]> {
+    p.iter()
+        .map(|p| p.color.to_array().map(f32::to_bits))
+        .collect()
+}
