@@ -32,6 +32,8 @@ pub enum Command {
     Dram(crate::commands::dram::DramArgs),
     /// Replay an address trace through a cache hierarchy, functionally or timed (docs/CACHES.md).
     Cache(crate::commands::cache::CacheArgs),
+    /// Run the same frame on several SGRT presets and print speed and step ratios (Table 4).
+    Compare(crate::commands::compare::CompareArgs),
 }
 
 /// Flags shared by everything that loads a scene and a config.

@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod bvh_stats;
 pub mod cache;
+pub mod compare;
 pub mod dram;
 pub mod export;
 pub mod render;
@@ -30,6 +31,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Dram(a) => dram::run(a),
         Command::Cache(a) => cache::run(a),
+        Command::Compare(a) => compare::run(a),
     }
 }
 
@@ -70,11 +72,22 @@ pub(crate) struct FrameOutputs {
     stats: PathBuf,
     timing: PathBuf,
     config: PathBuf,
+    /// Further files of this run, by name in the output directory (`hits.bin` …).
+    extra: Vec<PathBuf>,
 }
 
 impl FrameOutputs {
     /// Plan and prepare the set (the pre-flight check: fails before any work).
     pub(crate) fn prepare(args: &SceneArgs, r: &Resolved) -> Result<FrameOutputs> {
+        Self::prepare_with(args, r, &[])
+    }
+
+    /// As [`FrameOutputs::prepare`], with further files named in the output directory.
+    pub(crate) fn prepare_with(
+        args: &SceneArgs,
+        r: &Resolved,
+        extra: &[&str],
+    ) -> Result<FrameOutputs> {
         let dir = r.config.output.dir.clone();
         let heatmap = dir.join("heatmap.png");
         let heatmap = r.config.output.heatmap.then_some(heatmap);
@@ -86,7 +99,8 @@ impl FrameOutputs {
         );
         let mut plan = OutputPlan::new();
         plan.dir(&dir, "the output directory (--out, output.dir)");
-        for f in [&png, &stats, &timing, &config] {
+        let extra: Vec<PathBuf> = extra.iter().map(|n| dir.join(n)).collect();
+        for f in [&png, &stats, &timing, &config].into_iter().chain(&extra) {
             plan.file(f);
         }
         match &heatmap {
@@ -102,7 +116,19 @@ impl FrameOutputs {
             stats,
             timing,
             config,
+            extra,
         })
+    }
+
+    /// Stage one of the further files planned by [`FrameOutputs::prepare_with`].
+    pub(crate) fn write_extra(&mut self, name: &str, bytes: &[u8]) -> Result<()> {
+        let path = self
+            .extra
+            .iter()
+            .find(|p| p.file_name().is_some_and(|n| n == name))
+            .with_context(|| format!("{name} was not planned as an output"))?
+            .clone();
+        Ok(self.set.write(&path, bytes)?)
     }
 
     /// Write the image, heat map, stats, timing and resolved config, and commit them together.

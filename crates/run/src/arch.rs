@@ -4,7 +4,8 @@
 //! user's layers (`rtsim_config::assemble`); it may set keys of any section — a chip picks its
 //! traversal variant, triangle test, memory layout and DRAM standard — and the user's file,
 //! flags and `--set`s override any of them. `functional` (the default) is the functional
-//! tracer alone: no timing.
+//! tracer alone: no timing. Each chip model's own settings are a table of `[arch]`
+//! (`arch.sgrt.*`: `rtsim_sgrt::SgrtConfig`).
 
 use rtsim_config::{ConfigError, Validate};
 use serde::{Deserialize, Serialize};
@@ -19,20 +20,42 @@ pub const DEFAULT: &str = "functional";
 pub struct ArchConfig {
     /// Architecture preset (see [`ARCH_PRESETS`]). Default `functional`.
     pub preset: String,
+    /// SGRT's settings (`arch.sgrt.*`, documented in `rtsim_sgrt::config`); used by the `sgrt`
+    /// presets.
+    pub sgrt: rtsim_sgrt::SgrtConfig,
 }
 
 impl Default for ArchConfig {
     fn default() -> Self {
         ArchConfig {
             preset: DEFAULT.into(),
+            sgrt: rtsim_sgrt::SgrtConfig::default(),
         }
     }
 }
 
 impl Validate for ArchConfig {
     fn validate(&self) -> Result<(), ConfigError> {
-        preset(&self.preset).map(|_| ())
+        preset(&self.preset)?;
+        self.sgrt.validate()
     }
+}
+
+/// What every SGRT preset sets besides `[arch.sgrt]` (SGRT paper §3–§4).
+macro_rules! sgrt_common {
+    () => {
+        r#"
+[trace]
+traversal = "short-stack"   # the TRV's short stacks (SGRT §3.3; depth: trace.short_stack_entries)
+triangle_test = "wald"      # the IST runs Wald's test (SGRT §3.2)
+
+[bvh]
+builder = "sweep"           # "built with a full SAH-based algorithm" (SGRT §4.2)
+
+[dram]
+preset = "lpddr3-1600"      # "32 bit 2-channel, close to LPDDR3", 12.8 GB/s (SGRT §4.2)
+"#
+    };
 }
 
 /// A named architecture preset.
@@ -45,11 +68,40 @@ pub struct ArchPreset {
 }
 
 /// The architecture presets shipped with rtsim.
-pub const ARCH_PRESETS: &[ArchPreset] = &[ArchPreset {
-    name: "functional",
-    about: "the functional tracer alone (no timing): the oracle every chip model matches",
-    toml: "",
-}];
+pub const ARCH_PRESETS: &[ArchPreset] = &[
+    ArchPreset {
+        name: "functional",
+        about: "the functional tracer alone (no timing): the oracle every chip model matches",
+        toml: "",
+    },
+    ArchPreset {
+        name: "sgrt",
+        about: "SGRT: 4 cores (T&I unit with parallel pipelined TRVs + SRP) on LPDDR3-1600",
+        toml: concat!(
+            "# SGRT (Lee et al., HPG 2013): four cores, parallel pipelined TRVs (SGRT §4).\n",
+            "[arch.sgrt]\ncores = 4\norganisation = \"pptrv\"\n",
+            sgrt_common!()
+        ),
+    },
+    ArchPreset {
+        name: "sgrt-sptrv",
+        about: "SGRT with the conventional single pipelined TRV (Table 4's SPTRV), 4 cores",
+        toml: concat!(
+            "# SGRT with single pipelined TRVs (SGRT Table 4, §4.2).\n",
+            "[arch.sgrt]\ncores = 4\norganisation = \"sptrv\"\n",
+            sgrt_common!()
+        ),
+    },
+    ArchPreset {
+        name: "sgrt-1",
+        about: "one SGRT core (Table 4: \"executed on a single T&I unit\"), PPTRV",
+        toml: concat!(
+            "# One SGRT core (Table 4: one T&I unit).\n",
+            "[arch.sgrt]\ncores = 1\norganisation = \"pptrv\"\n",
+            sgrt_common!()
+        ),
+    },
+];
 
 /// Look up a preset by name.
 pub fn preset(name: &str) -> Result<&'static ArchPreset, ConfigError> {

@@ -88,3 +88,61 @@ fn the_resolved_tree_repeats_the_run() {
     .unwrap();
     assert_eq!(again.config, r.config);
 }
+
+#[test]
+fn sgrt_presets_set_the_traversal_test_builder_and_dram() {
+    for (name, cores, org) in [
+        ("sgrt", 4, rtsim_sgrt::Organisation::Pptrv),
+        ("sgrt-sptrv", 4, rtsim_sgrt::Organisation::Sptrv),
+        ("sgrt-1", 1, rtsim_sgrt::Organisation::Pptrv),
+    ] {
+        let c = build(&[&format!("arch.preset={name}")]).unwrap();
+        assert_eq!(c.arch.sgrt.cores, cores, "{name}");
+        assert_eq!(c.arch.sgrt.organisation, org, "{name}");
+        assert_eq!(c.trace.traversal, Traversal::ShortStack, "{name}");
+        assert_eq!(
+            c.trace.triangle_test,
+            rtsim_trace::TriangleTest::Wald,
+            "{name}"
+        );
+        assert_eq!(c.bvh.builder, rtsim_bvh::Builder::Sweep, "{name}");
+        assert_eq!(c.dram.preset, "lpddr3-1600", "{name}");
+    }
+    // The user's keys win over the preset's, and SGRT keys are validated with their path.
+    let c = build(&["arch.preset=sgrt", "arch.sgrt.cores=2"]).unwrap();
+    assert_eq!(c.arch.sgrt.cores, 2);
+    let e = build(&["arch.preset=sgrt", "arch.sgrt.trv.stacks=0"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("arch.sgrt.trv.stacks"), "{e}");
+    let e = build(&["arch.sgrt.warp=1"]).unwrap_err().to_string();
+    assert!(e.contains("arch.sgrt.warp"), "{e}");
+}
+
+#[test]
+fn a_viewpoint_replaces_the_camera_and_an_unknown_one_is_named() {
+    // The shared scenes, as the scene crate's tests find them.
+    let dir = std::env::var("RTSIM_SCENE_DIR")
+        .unwrap_or_else(|_| format!("{}/../../../shared/scenes", env!("CARGO_MANIFEST_DIR")));
+    let dir = format!("scene.dir=\"{dir}\"");
+    let r = resolve(
+        &inputs(&["scene.name=sibenik", "scene.viewpoint=3", &dir]),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(r.scene.camera, r.scene.viewpoints[2]);
+    let e = resolve(
+        &inputs(&["scene.name=sibenik", "scene.viewpoint=6", &dir]),
+        &mut |_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("scene.viewpoint") && e.contains("1..=5"), "{e}");
+    let e = resolve(&inputs(&["scene.viewpoint=1"]), &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("scene.viewpoint") && e.contains("no [[viewpoint]]"),
+        "{e}"
+    );
+}

@@ -20,6 +20,11 @@
 //! up = [0, 1, 0]               # default +y
 //! fov_y = 60                   # vertical field of view, degrees
 //!
+//! [[viewpoint]]                # further cameras, chosen with scene.viewpoint = 1, 2, …
+//! eye = [-19.2, -10.6, 1.5]    # the same keys as [camera]
+//! direction = [0.96, -0.04, -0.29]
+//! fov_y = 73.74
+//!
 //! [light]
 //! position = [0, 5, 0]
 //! intensity = 1000.0           # or [r, g, b]; default: see auto::light_intensity
@@ -63,6 +68,9 @@ pub struct Descriptor {
     pub meshes: Vec<MeshSpec>,
     /// `[camera]`; default: [`auto::framing_camera`] of the scene bounds.
     pub camera: Option<CameraSpec>,
+    /// `[[viewpoint]]`: further cameras, in order (`scene.viewpoint = 1` is the first).
+    #[serde(rename = "viewpoint", default)]
+    pub viewpoints: Vec<ViewpointSpec>,
     /// `[light]`; default: [`auto::framing_light`] of the scene bounds.
     pub light: Option<LightSpec>,
     /// `[box]`: a closed box around the model.
@@ -141,6 +149,30 @@ pub struct CameraSpec {
     pub fov_y: f32,
 }
 
+/// One `[[viewpoint]]`: a camera, with the keys of `[camera]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ViewpointSpec {
+    pub eye: [f32; 3],
+    pub direction: Option<[f32; 3]>,
+    pub look_at: Option<[f32; 3]>,
+    #[serde(default = "y_up")]
+    pub up: [f32; 3],
+    pub fov_y: f32,
+}
+
+impl ViewpointSpec {
+    fn camera(&self) -> CameraSpec {
+        CameraSpec {
+            eye: self.eye,
+            direction: self.direction,
+            look_at: self.look_at,
+            up: self.up,
+            fov_y: self.fov_y,
+        }
+    }
+}
+
 fn y_up() -> [f32; 3] {
     [0.0, 1.0, 0.0]
 }
@@ -194,6 +226,22 @@ impl Invalid {
 
 fn v3(a: [f32; 3]) -> Vec3 {
     Vec3::from_array(a)
+}
+
+impl CameraSpec {
+    /// The camera (validated: exactly one of `direction` and `look_at`).
+    fn to_camera(self) -> Camera {
+        Camera {
+            eye: v3(self.eye),
+            direction: match (self.direction, self.look_at) {
+                (Some(d), _) => v3(d),
+                (None, Some(t)) => v3(t) - v3(self.eye),
+                (None, None) => unreachable!("validated: direction or look_at"),
+            },
+            up: v3(self.up),
+            fov_y_deg: self.fov_y,
+        }
+    }
 }
 
 impl Descriptor {
@@ -307,43 +355,10 @@ impl Descriptor {
             }
         }
         if let Some(c) = &self.camera {
-            coord("camera.eye", &c.eye)?;
-            finite("camera.up", &c.up)?;
-            let dir = match (c.direction, c.look_at) {
-                (Some(d), None) => {
-                    finite("camera.direction", &d)?;
-                    v3(d)
-                }
-                (None, Some(t)) => {
-                    coord("camera.look_at", &t)?;
-                    v3(t) - v3(c.eye)
-                }
-                _ => {
-                    return Err(bad(
-                        "camera",
-                        "give exactly one of `direction` and `look_at`".into(),
-                    ));
-                }
-            };
-            if dir.length_squared() == 0.0 {
-                return Err(bad(
-                    "camera",
-                    "view direction is zero (look_at equals eye?)".into(),
-                ));
-            }
-            let up = v3(c.up);
-            if dir.normalized().cross(up.normalized()).length() < 1e-6 {
-                return Err(bad(
-                    "camera.up",
-                    "must not be zero or parallel to the view direction".into(),
-                ));
-            }
-            if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
-                return Err(bad(
-                    "camera.fov_y",
-                    format!("must be in (0, 180) degrees, got {}", c.fov_y),
-                ));
-            }
+            check_camera(c, "camera", &bad)?;
+        }
+        for (i, v) in self.viewpoints.iter().enumerate() {
+            check_camera(&v.camera(), &format!("viewpoint[{i}]"), &bad)?;
         }
         if let Some(l) = &self.light {
             coord("light.position", &l.position)?;
@@ -457,18 +472,14 @@ impl Descriptor {
             }
         }
         let camera = match &self.camera {
-            Some(c) => Camera {
-                eye: v3(c.eye),
-                direction: match (c.direction, c.look_at) {
-                    (Some(d), _) => v3(d),
-                    (None, Some(t)) => v3(t) - v3(c.eye),
-                    (None, None) => unreachable!("validated: direction or look_at"),
-                },
-                up: v3(c.up),
-                fov_y_deg: c.fov_y,
-            },
+            Some(c) => c.to_camera(),
             None => auto::framing_camera(&bounds),
         };
+        let viewpoints = self
+            .viewpoints
+            .iter()
+            .map(|v| v.camera().to_camera())
+            .collect();
         let position = self
             .light
             .map(|l| v3(l.position))
@@ -484,6 +495,7 @@ impl Descriptor {
             material_ids: all.material_ids,
             materials: all.materials,
             camera,
+            viewpoints,
             light: PointLight {
                 position,
                 intensity,
@@ -493,6 +505,71 @@ impl Descriptor {
             report: all.report,
         })
     }
+}
+
+/// Checks of a camera (`[camera]` or a `[[viewpoint]]`), errors naming `key`.
+fn check_camera(
+    c: &CameraSpec,
+    key: &str,
+    bad: &dyn Fn(&str, String) -> Invalid,
+) -> Result<(), Invalid> {
+    let finite = |k: &str, a: &[f32]| {
+        if a.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(bad(k, format!("must be finite, got {a:?}")))
+        }
+    };
+    // Positions: finite and within what the BVH and camera arithmetic can hold.
+    let coord = |k: &str, a: &[f32]| {
+        finite(k, a)?;
+        if a.iter().all(|v| v.abs() <= MAX_COORDINATE) {
+            Ok(())
+        } else {
+            Err(bad(
+                k,
+                format!("must be within ±{MAX_COORDINATE:e}, got {a:?}"),
+            ))
+        }
+    };
+    coord(&format!("{key}.eye"), &c.eye)?;
+    finite(&format!("{key}.up"), &c.up)?;
+    let dir = match (c.direction, c.look_at) {
+        (Some(d), None) => {
+            finite(&format!("{key}.direction"), &d)?;
+            v3(d)
+        }
+        (None, Some(t)) => {
+            coord(&format!("{key}.look_at"), &t)?;
+            v3(t) - v3(c.eye)
+        }
+        _ => {
+            return Err(bad(
+                key,
+                "give exactly one of `direction` and `look_at`".into(),
+            ));
+        }
+    };
+    if dir.length_squared() == 0.0 {
+        return Err(bad(
+            key,
+            "view direction is zero (look_at equals eye?)".into(),
+        ));
+    }
+    let up = v3(c.up);
+    if dir.normalized().cross(up.normalized()).length() < 1e-6 {
+        return Err(bad(
+            &format!("{key}.up"),
+            "must not be zero or parallel to the view direction".into(),
+        ));
+    }
+    if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
+        return Err(bad(
+            &format!("{key}.fov_y"),
+            format!("must be in (0, 180) degrees, got {}", c.fov_y),
+        ));
+    }
+    Ok(())
 }
 
 /// The 12 triangles of a box's faces (two per face; -x, +x, -y, +y, -z, +z).
@@ -578,6 +655,24 @@ ao_radius = 5.0
             PathBuf::from("/s/a/m.obj.zst")
         );
         assert_eq!(d.mesh_path(1, Path::new("/s")), PathBuf::from("/abs/n.ply"));
+    }
+
+    #[test]
+    fn viewpoints_parse_in_order_and_are_checked() {
+        let d = parse(&format!(
+            "{MIN}[[viewpoint]]\neye = [0, 0, 0]\ndirection = [1, 0, 0]\nfov_y = 60\n\
+             [[viewpoint]]\neye = [1, 2, 3]\nlook_at = [1, 2, 4]\nfov_y = 45\n"
+        ))
+        .unwrap();
+        assert_eq!(d.viewpoints.len(), 2);
+        let c = d.viewpoints[1].camera().to_camera();
+        assert_eq!(c.direction, Vec3::new(0.0, 0.0, 1.0));
+        assert_eq!(c.fov_y_deg, 45.0);
+        let e = err(&format!(
+            "{MIN}[[viewpoint]]\neye = [0, 0, 0]\ndirection = [1, 0, 0]\nfov_y = 60\n\
+             [[viewpoint]]\neye = [0, 0, 0]\ndirection = [1, 0, 0]\nfov_y = 200\n"
+        ));
+        assert!(e.contains("viewpoint[1].fov_y"), "{e}");
     }
 
     #[test]

@@ -241,6 +241,10 @@ pub struct Scene {
     pub material_ids: Vec<u32>,
     pub materials: Vec<Material>,
     pub camera: Camera,
+    /// Further named viewpoints (a descriptor's `[[viewpoint]]` list, in order): the five per
+    /// scene that the SGRT paper's tables average over. `scene.viewpoint = N` (1-based)
+    /// replaces `camera` with the N-th.
+    pub viewpoints: Vec<Camera>,
     pub light: PointLight,
     /// Workload defaults from the descriptor (`[workload]` table), merged under user settings.
     pub workload_defaults: toml::Table,

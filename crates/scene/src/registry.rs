@@ -286,6 +286,7 @@ fn load_bare_mesh(path: &Path, name: &str) -> Result<Scene, SceneError> {
         material_ids: m.material_ids,
         materials: m.materials,
         camera: auto::framing_camera(&bounds),
+        viewpoints: Vec::new(),
         light: PointLight {
             position,
             intensity,

@@ -81,6 +81,25 @@ fn every_shipped_descriptor_loads_with_its_count_and_a_sensible_view() {
         assert!(s.files.iter().all(|f| f.is_file()), "{name}");
         assert!(s.light.intensity.min_component() > 0.0, "{name}");
         check_camera_and_light(name, &s);
+        // Every [[viewpoint]] is a sensible view too (the SGRT tables average over them).
+        for (i, v) in s.viewpoints.iter().enumerate() {
+            let view = Scene {
+                camera: *v,
+                ..s.clone()
+            };
+            check_camera_and_light(&format!("{name} viewpoint {}", i + 1), &view);
+        }
+    }
+}
+
+#[test]
+fn sibenik_and_conference_ship_five_viewpoints_inside_the_model() {
+    for name in ["sibenik", "conference"] {
+        let s = load(name);
+        assert_eq!(s.viewpoints.len(), 5, "{name}");
+        for v in &s.viewpoints {
+            assert!(s.bounds().contains(v.eye), "{name}: {v:?}");
+        }
     }
 }
 

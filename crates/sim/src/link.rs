@@ -131,6 +131,17 @@ impl<T> Link<T> {
         Ok(())
     }
 
+    /// Items visible at `cycle` (arrived and not yet taken): a receiver that takes items in
+    /// batches (a shader taking a packet of hits) decides by it.
+    pub fn visible_len(&self, cycle: u64) -> usize {
+        self.items.partition_point(|&(t, _)| t <= cycle)
+    }
+
+    /// The cycle at which the first item not yet visible at `cycle` becomes visible.
+    pub fn next_ready_after(&self, cycle: u64) -> Option<u64> {
+        self.items.get(self.visible_len(cycle)).map(|&(t, _)| t)
+    }
+
     /// The cycle at which the head item is (or was) visible; `None` when empty.
     pub fn next_ready(&self) -> Option<u64> {
         self.items.front().map(|&(t, _)| t)
@@ -198,6 +209,15 @@ mod tests {
         l.push(11, 'b').unwrap();
         assert_eq!(l.next_ready(), Some(13));
         assert_eq!(l.peek(12), None);
+        assert_eq!(
+            (l.visible_len(12), l.visible_len(13), l.visible_len(14)),
+            (0, 1, 2)
+        );
+        assert_eq!(
+            (l.next_ready_after(12), l.next_ready_after(13)),
+            (Some(13), Some(14))
+        );
+        assert_eq!(l.next_ready_after(14), None);
         assert_eq!(l.pop(12).unwrap(), None);
         assert_eq!(l.peek(13), Some(&'a'));
         assert_eq!(l.pop(13).unwrap(), Some('a'));

@@ -78,5 +78,6 @@ pub fn run(s: &Session) -> Result<SimOutput> {
             cycles_per_second: 0.0,
         },
         summary,
+        files: Vec::new(),
     })
 }

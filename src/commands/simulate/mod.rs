@@ -8,6 +8,7 @@
 //! files.
 
 mod functional;
+pub mod sgrt;
 
 use crate::cli::SceneArgs;
 use crate::commands::FrameOutputs;
@@ -28,6 +29,13 @@ pub struct SimulateArgs {
     /// Architecture preset (`arch.preset`): functional, and the chip presets (see README).
     #[arg(long)]
     pub arch: Option<String>,
+    #[command(flatten)]
+    pub frame: FrameArgs,
+}
+
+/// The frame and timing flags `simulate` and `compare` share.
+#[derive(Debug, Args, Clone)]
+pub struct FrameArgs {
     /// Workload: primary, ao, diffuse, path, specular.
     #[arg(long)]
     pub workload: Option<String>,
@@ -58,6 +66,61 @@ pub struct SimulateArgs {
     pub out: Option<PathBuf>,
 }
 
+impl FrameArgs {
+    /// The flags as dotted keys.
+    pub fn flags(&self) -> Result<Vec<Flag>> {
+        if let Some(w) = &self.window
+            && w.len() != 4
+        {
+            anyhow::bail!("--window takes four numbers, X0,Y0,X1,Y1 (got {})", w.len());
+        }
+        let mut flags: Vec<Flag> = Vec::new();
+        let mut s = |k: &'static str, v: Option<Value>| {
+            if let Some(v) = v {
+                flags.push((k, v));
+            }
+        };
+        s("workload.kind", self.workload.clone().map(Value::String));
+        s(
+            "workload.width",
+            self.width.map(|v| Value::Integer(v.into())),
+        );
+        s(
+            "workload.height",
+            self.height.map(|v| Value::Integer(v.into())),
+        );
+        s("workload.spp", self.spp.map(|v| Value::Integer(v.into())));
+        s(
+            "sim.window",
+            self.window
+                .as_ref()
+                .map(|w| Value::Array(w.iter().map(|&v| Value::Integer(v.into())).collect())),
+        );
+        s(
+            "sim.cycle_limit",
+            self.cycle_limit
+                .map(|c| {
+                    i64::try_from(c).map(Value::Integer).map_err(|_| {
+                        rtsim_config::ConfigError::range(
+                            "--cycle-limit",
+                            c,
+                            format!("1..={}", i64::MAX),
+                        )
+                    })
+                })
+                .transpose()?,
+        );
+        s("sim.mode", self.mode.clone().map(Value::String));
+        s(
+            "output.dir",
+            self.out
+                .as_ref()
+                .map(|o| Value::String(o.display().to_string())),
+        );
+        Ok(flags)
+    }
+}
+
 /// What an architecture model produced for a frame.
 pub struct SimOutput {
     /// One per image pixel, row-major (black outside the simulated window).
@@ -71,6 +134,19 @@ pub struct SimOutput {
     pub timing: Timing,
     /// Lines of the terminal summary.
     pub summary: Vec<String>,
+    /// Further files for the output directory, by name; each must be one of
+    /// [`extra_outputs`]' names for the run.
+    pub files: Vec<(&'static str, Vec<u8>)>,
+}
+
+/// The files a run writes besides the frame's: SGRT's `hits.bin` when it traces a rays file.
+fn extra_outputs(r: &rtsim_run::Resolved) -> &'static [&'static str] {
+    let a = &r.config.arch;
+    if a.preset.starts_with("sgrt") && a.sgrt.rays_file.is_some() {
+        &["hits.bin"]
+    } else {
+        &[]
+    }
 }
 
 /// Host figures of a run.
@@ -96,59 +172,25 @@ pub mod erased {
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
-    if let Some(w) = &args.window
-        && w.len() != 4
-    {
-        anyhow::bail!("--window takes four numbers, X0,Y0,X1,Y1 (got {})", w.len());
+    let mut flags = args.frame.flags()?;
+    if let Some(a) = &args.arch {
+        flags.push(("arch.preset", Value::String(a.clone())));
     }
-    let mut flags: Vec<Flag> = Vec::new();
-    let mut s = |k: &'static str, v: Option<Value>| {
-        if let Some(v) = v {
-            flags.push((k, v));
-        }
-    };
-    s("arch.preset", args.arch.clone().map(Value::String));
-    s("workload.kind", args.workload.clone().map(Value::String));
-    s(
-        "workload.width",
-        args.width.map(|v| Value::Integer(v.into())),
-    );
-    s(
-        "workload.height",
-        args.height.map(|v| Value::Integer(v.into())),
-    );
-    s("workload.spp", args.spp.map(|v| Value::Integer(v.into())));
-    s(
-        "sim.window",
-        args.window
-            .as_ref()
-            .map(|w| Value::Array(w.iter().map(|&v| Value::Integer(v.into())).collect())),
-    );
-    let cycle_limit = args
-        .cycle_limit
-        .map(|c| {
-            i64::try_from(c).map_err(|_| {
-                rtsim_config::ConfigError::range("--cycle-limit", c, format!("1..={}", i64::MAX))
-            })
-        })
-        .transpose()?;
-    s("sim.cycle_limit", cycle_limit.map(Value::Integer));
-    s("sim.mode", args.mode.clone().map(Value::String));
-    s(
-        "output.dir",
-        args.out
-            .as_ref()
-            .map(|o| Value::String(o.display().to_string())),
-    );
     let resolved = crate::run_config::resolve(&args.scene, &flags)?;
     // Pre-flight: every output is checked and staged before the (possibly hours-long) run.
-    let outputs = crate::commands::FrameOutputs::prepare(&args.scene, &resolved)?;
+    let outputs = crate::commands::FrameOutputs::prepare_with(
+        &args.scene,
+        &resolved,
+        extra_outputs(&resolved),
+    )?;
     let session = session::build(resolved, false)?;
     let preset = session.resolved.config.arch.preset.clone();
     let out = match preset.as_str() {
         "functional" => functional::run(&session)?,
+        "sgrt" | "sgrt-sptrv" | "sgrt-1" => sgrt::run(&session)?,
         other => anyhow::bail!(
-            "arch.preset = {other} has no simulator in this build (known: functional)"
+            "arch.preset = {other} has no simulator in this build (known: functional, sgrt, \
+             sgrt-sptrv, sgrt-1)"
         ),
     };
     let png = outputs.png().to_path_buf();
@@ -166,7 +208,10 @@ pub fn run(args: SimulateArgs) -> Result<()> {
 
 /// Write the image, heat map, stats, timing and resolved config as one set (all or none);
 /// returns the heat map's top value.
-fn write_outputs(s: &Session, out: &SimOutput, files: FrameOutputs) -> Result<u64> {
+fn write_outputs(s: &Session, out: &SimOutput, mut files: FrameOutputs) -> Result<u64> {
+    for (name, bytes) in &out.files {
+        files.write_extra(name, bytes)?;
+    }
     let cfg = &s.resolved.config;
     let params = rtsim_run::workload_params(&s.resolved);
     let (w, h) = (params.width, params.height);

@@ -174,6 +174,7 @@ pub(crate) fn assemble(
         material_ids: mesh.material_ids,
         materials: mesh.materials,
         camera,
+        viewpoints: Vec::new(),
         light: PointLight {
             position: light_position,
             intensity,
