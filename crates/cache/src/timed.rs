@@ -23,8 +23,8 @@
 //! # Timing rules
 //!
 //! - **Banks.** A cache of `banks` banks (a power of two) sends an access to bank
-//!   `line_address mod banks` — the address bits just above the line offset — and each bank
-//!   does one lookup per cycle. At an L1 a second access to a busy bank is refused
+//!   `(address / bank_bytes) mod banks` — by default `bank_bytes` is the line, so the bank is
+//!   the address bits just above the line offset — and each bank does one lookup per cycle. At an L1 a second access to a busy bank is refused
 //!   (`Busy`, retry next cycle); at an inner cache (an L2) it waits for the bank's next free
 //!   cycle. Each such conflict is counted once per attempt.
 //! - **Hits** are ready `hit_latency` cycles after the lookup.
@@ -161,6 +161,7 @@ struct Node {
     parent: Parent,
     latency: u64,
     bank_mask: u64,
+    bank_shift: u32,
     bank_free: Vec<u64>,
     mshrs: Vec<Mshr>,
     free_mshrs: Vec<usize>,
@@ -178,7 +179,7 @@ impl Node {
         self.cache.line_of(addr)
     }
     fn bank(&self, addr: u64) -> usize {
-        (self.line(addr) & self.bank_mask) as usize
+        ((addr >> self.bank_shift) & self.bank_mask) as usize
     }
     fn mshrs_used(&self) -> usize {
         self.mshrs.len() - self.free_mshrs.len()
@@ -275,6 +276,7 @@ impl<M: MemoryPort> Hierarchy<M> {
                     parent: n.parent,
                     latency: c.hit_latency.into(),
                     bank_mask: u64::from(c.banks - 1),
+                    bank_shift: c.bank_interleave().trailing_zeros(),
                     bank_free: vec![0; c.banks as usize],
                     mshrs: vec![Mshr::default(); c.mshrs as usize],
                     free_mshrs: (0..c.mshrs as usize).rev().collect(),
