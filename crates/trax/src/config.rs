@@ -198,8 +198,11 @@ pub struct TraxConfig {
     /// TMs per L2: 0 = one L2 shared by all TMs (the baseline, STRaTA §5); otherwise TM `i`
     /// uses L2 `i / l1s_per_l2`. 0..=`tms`.
     pub l1s_per_l2: u32,
-    /// The L1 data cache of each TM. Default: 16 KB direct-mapped, 64 B lines, 8 banks, hit 1,
-    /// write-around (`rtsim_cache::CacheLevel::trax_l1`; STRaTA §5, SimTRaX).
+    /// The L1 data cache of each TM. Default: 16 KB (STRaTA §5) direct-mapped, 64 B lines,
+    /// hit 1, write-around (SimTRaX, `DESIGN.md` §3), 16 word-interleaved banks
+    /// (`bank_bytes = 4`: SimTRaX's `samples/configs/bigcache.config` gives the L1 16 banks and
+    /// its `sim/L1Cache.cc` picks the bank from the word address), 32 MSHRs (assumed, one per
+    /// TP).
     pub l1: CacheLevel,
     /// Each L2. Default 4 MB direct-mapped, 16 banks, hit 3 (`CacheLevel::trax_l2`; STRaTA
     /// §5, SimTRaX).
@@ -224,7 +227,11 @@ impl Default for TraxConfig {
             fetches_per_bank: 2,
             atomic: UnitConfig::new(1, 1, 0.000572),
             l1s_per_l2: 0,
-            l1: CacheLevel::trax_l1(),
+            l1: CacheLevel {
+                banks: 16,
+                bank_bytes: Some(4),
+                ..CacheLevel::trax_l1()
+            },
             l2: CacheLevel::trax_l2(),
             energy: EnergyConfig::default(),
         }
@@ -386,6 +393,7 @@ mod tests {
         assert_eq!((c.units.fp_add.count, c.units.fp_add.latency), (8, 2));
         assert_eq!((c.units.div_sqrt.count, c.units.div_sqrt.latency), (1, 16));
         assert_eq!(c.l1.size_bytes, 16 * 1024);
+        assert_eq!((c.l1.banks, c.l1.bank_interleave()), (16, 4));
         assert_eq!(c.l2.size_bytes, 4 << 20);
     }
 

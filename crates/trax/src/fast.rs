@@ -205,6 +205,7 @@ pub fn run(
         wheel.add(0, tp);
     }
     let mut batch: Vec<u32> = Vec::with_capacity(n);
+    let mut offers: Vec<(u64, u32)> = Vec::with_capacity(n);
     let mut done = std::mem::take(&mut chip.completions);
     let mut last = 0;
     let mut ticks = 0u32;
@@ -235,8 +236,23 @@ pub fn run(
             }
         }
         wheel.take(t, &mut batch);
+        // First the cycle's accesses, oldest first (by key, ties by TP index); then every TP
+        // that resumes now — accepted or woken by a returned miss — books ahead with key `t`
+        // in TP order (`docs/TRAX.md`). A resuming TP's access in this cycle is offered in
+        // its turn: its key, `t`, is the largest of the cycle.
+        offers.clear();
+        offers.extend(
+            batch
+                .iter()
+                .filter(|&&tp| chip.cores[tp as usize].wait == Wait::Access)
+                .map(|&tp| (chip.cores[tp as usize].key, tp)),
+        );
+        offers.sort_unstable();
+        for &(_, tp) in &offers {
+            offer(chip, &mut wheel, tp as usize, t)?;
+        }
         for &tp in &batch {
-            handle(chip, &mut cal, &mut wheel, tp as usize, t)?;
+            resume(chip, &mut cal, &mut wheel, tp as usize, t)?;
         }
         last = t;
         ticks += 1;
@@ -252,33 +268,34 @@ pub fn run(
     Ok(last)
 }
 
-/// TP `tp`'s event at cycle `t`: offer its access, or resume it after a returned miss.
-fn handle(
+/// Offer TP `tp`'s pending access at cycle `t`; refused, it waits for the retry cycle.
+fn offer(chip: &mut Chip<'_>, wheel: &mut Wheel, tp: usize, t: u64) -> Result<(), ChipError> {
+    debug_assert_eq!(chip.cores[tp].access_at, t);
+    let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
+    if let Offered::Busy { retry_at } = chip.access(tp, i, t)? {
+        chip.cores[tp].access_at = retry_at;
+        wheel.add(retry_at, tp);
+    }
+    Ok(())
+}
+
+/// TP `tp` resumes at `t` (its access was accepted, or a miss it waited for returned, or the
+/// frame starts): it books ahead with key `t`.
+fn resume(
     chip: &mut Chip<'_>,
     cal: &mut Calendar,
     wheel: &mut Wheel,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
-    match chip.cores[tp].wait {
-        Wait::Access => {
-            debug_assert_eq!(chip.cores[tp].access_at, t);
-            let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
-            match chip.access(tp, i, t)? {
-                Offered::Accepted => {}
-                Offered::Busy { retry_at } => {
-                    chip.cores[tp].access_at = retry_at;
-                    wheel.add(retry_at, tp);
-                    return Ok(());
-                }
-            }
-        }
+    let core = &mut chip.cores[tp];
+    match core.wait {
+        // Refused this cycle: it waits for its retry.
+        Wait::Access | Wait::Halted => return Ok(()),
         Wait::Ready | Wait::Blocked => {
-            let core = &mut chip.cores[tp];
             core.key = t;
             core.wait = Wait::Ready;
         }
-        Wait::Halted => return Ok(()),
     }
     run_ahead(chip, cal, wheel, tp, t)
 }

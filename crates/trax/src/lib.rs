@@ -41,6 +41,9 @@ pub mod report;
 pub mod stats;
 pub mod work;
 
+#[cfg(test)]
+mod timing_tests;
+
 pub use chip::{Chip, ChipError};
 pub use config::{TraxConfig, UnitConfig};
 pub use program::{Program, Run, Seg};

@@ -4,7 +4,7 @@
 //! TP whose next instruction can issue (in order, its operands readable, no access pending)
 //! asks for its unit and fetch bank; requests are granted in order of priority key (ties by
 //! TP index) while the TM's units of the class and the bank's fetch ports have room; then the
-//! cycle's data-cache and atomic accesses are offered in TP order. Slow (its cost is
+//! cycle's data-cache and atomic accesses are offered in the same priority order. Slow (its cost is
 //! cycles × TPs), plain, and the definition the fast engine is tested against.
 
 use crate::chip::{Chip, ChipError, Offered, Wait};
@@ -116,7 +116,9 @@ pub fn run(
                 chip.retire_issue(tp, i, t);
             }
         }
-        accesses.sort_unstable();
+        // Oldest first (by key, ties by TP index), as for units and fetch banks.
+        let cores = &chip.cores;
+        accesses.sort_unstable_by_key(|&tp| (cores[tp as usize].key, tp));
         for &tp in &accesses {
             let tp = tp as usize;
             let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;

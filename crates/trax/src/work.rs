@@ -93,9 +93,15 @@ impl Work {
         }
     }
 
-    /// The first block: the pixel loop.
-    pub fn first(&mut self, p: &Program) -> Run {
-        Run::new(p.next_pixel)
+    /// A TP that runs exactly `runs` and halts (hand-computed timing tests).
+    #[cfg(test)]
+    pub(crate) fn scripted(runs: &[Run]) -> Work {
+        let mut w = Work::new();
+        for &r in runs {
+            w.push(r);
+        }
+        w.phase = Phase::Halted;
+        w
     }
 
     pub fn is_halted(&self) -> bool {
