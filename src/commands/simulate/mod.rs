@@ -8,6 +8,7 @@
 //! files.
 
 mod functional;
+mod trax;
 
 use crate::cli::SceneArgs;
 use crate::run_config::Flag;
@@ -134,8 +135,10 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let preset = session.resolved.config.arch.preset.clone();
     let out = match preset.as_str() {
         "functional" => functional::run(&session)?,
+        "trax-baseline" => trax::run(&session)?,
         other => anyhow::bail!(
-            "arch.preset = {other} has no simulator in this build (known: functional)"
+            "arch.preset = {other} has no simulator in this build (known: functional, \
+             trax-baseline)"
         ),
     };
     let top = write_outputs(&session, &out)?;

@@ -1,0 +1,113 @@
+//! `arch.preset = "trax-baseline"`: the TRaX chip (`rtsim-trax`), cycle by cycle.
+
+use super::{SimOutput, Timing};
+use crate::session::Session;
+use anyhow::Result;
+use rtsim_run::SimMode;
+use rtsim_run::facts::{BvhFacts, RayFacts, SceneFacts, WorkloadFacts};
+use rtsim_trace::Integrator;
+use rtsim_trax::{Engine, Frame, Options, TraxReport};
+use serde::Serialize;
+use std::time::Instant;
+
+#[derive(Debug, Serialize)]
+struct TraxStats {
+    rtsim_version: &'static str,
+    arch: String,
+    scene: SceneFacts,
+    bvh: BvhFacts,
+    workload: WorkloadFacts,
+    traversal: &'static str,
+    /// Pixels simulated (the window's).
+    pixels: u64,
+    rays: RayFacts,
+    trax: TraxReport,
+}
+
+/// Compact counts for the progress message.
+fn si(n: u64) -> String {
+    match n {
+        0..1_000 => n.to_string(),
+        1_000..1_000_000 => format!("{:.1}K", n as f64 / 1e3),
+        1_000_000..1_000_000_000 => format!("{:.1}M", n as f64 / 1e6),
+        _ => format!("{:.2}G", n as f64 / 1e9),
+    }
+}
+
+pub fn run(s: &Session) -> Result<SimOutput> {
+    let cfg = &s.resolved.config;
+    let params = rtsim_run::workload_params(&s.resolved);
+    let integ = Integrator::new(&s.resolved.scene, &s.tracer, params.clone());
+    let (w, h) = (params.width, params.height);
+    let pixels = cfg.sim.pixels(w, h);
+    let engine = match cfg.sim.mode {
+        SimMode::Fast => Engine::Fast,
+        SimMode::Reference => Engine::Reference,
+    };
+    let bar = crate::progress::bar(pixels.len() as u64, "pixels");
+    let start = Instant::now();
+    let out = rtsim_trax::simulate(
+        &cfg.arch.trax,
+        &cfg.dram,
+        Frame {
+            integ: &integ,
+            tracer: &s.tracer,
+            image: &s.image,
+            pixels: &pixels,
+            image_pixels: (w * h) as usize,
+        },
+        &Options {
+            engine,
+            cycle_limit: cfg.sim.cycle_limit,
+            seed: cfg.seed,
+        },
+        &mut |p| {
+            bar.set_position(p.pixels_done);
+            bar.set_message(format!("{} cycles, {} rays", si(p.cycle), si(p.rays)));
+        },
+    )?;
+    bar.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+    let r = &out.report;
+    let mut summary = vec![format!(
+        "arch             {} ({} pixels of {}x{}, {} rays, traversal {})",
+        cfg.arch.preset,
+        pixels.len(),
+        w,
+        h,
+        out.rays.total().rays,
+        s.tracer.traversal().name()
+    )];
+    summary.extend(r.summary());
+    let tp_cycles = r.cycles as f64 * r.chip.tps as f64;
+    let cycles_per_second = r.cycles as f64 / seconds;
+    summary.push(format!(
+        "host             {seconds:.2} s: {:.0} cycles/s, {:.1} M TP-cycles/s, {:.1} M instructions/s",
+        cycles_per_second,
+        tp_cycles / seconds / 1e6,
+        r.instructions.total as f64 / seconds / 1e6
+    ));
+    Ok(SimOutput {
+        heat: out.heat.clone(),
+        heat_label: "core cycles",
+        stats: Box::new(TraxStats {
+            rtsim_version: env!("CARGO_PKG_VERSION"),
+            arch: cfg.arch.preset.clone(),
+            scene: SceneFacts::of(&s.resolved.scene),
+            bvh: BvhFacts::of(s.tracer.bvh(), Some(&s.image)),
+            workload: WorkloadFacts::of(&params),
+            traversal: s.tracer.traversal().name(),
+            pixels: pixels.len() as u64,
+            rays: RayFacts::of(&out.rays, params.kind),
+            trax: out.report,
+        }),
+        pixels: out.pixels,
+        timing: Timing {
+            threads: 1,
+            bvh_build_seconds: s.build_seconds,
+            simulate_seconds: seconds,
+            cycles_per_second,
+        },
+        summary,
+    })
+}
