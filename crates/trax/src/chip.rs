@@ -74,36 +74,71 @@ pub(crate) enum Wait {
     Halted,
 }
 
-/// One TP's timing state.
+/// One TP's timing state, hot fields first (four cache lines).
 #[derive(Clone, Debug)]
+#[repr(C, align(64))]
 pub(crate) struct Core {
-    pub tm: u32,
-    /// First column of its instruction cache's banks in a calendar row.
-    pub icache_col: u32,
-    pub run: Run,
-    pub ip: u32,
-    /// Cycle each register's value can be read (`u64::MAX` while a miss is outstanding).
-    pub ready: [u64; 32],
-    /// Registers waiting for a miss.
-    pub pending: u32,
-    /// Registers last written by a data-cache load (a wait on them is a memory stall).
-    pub from_mem: u32,
-    /// Completion cycle of the miss that last wrote each register (0: not a miss).
-    pub miss_done: [u64; 32],
     /// Earliest cycle of the next instruction (in order, single issue; after a branch, its
     /// resolution).
     pub next_issue: u64,
     /// Priority key: the cycle of the TP's last synchronisation (see `docs/TRAX.md`).
     pub key: u64,
-    pub wait: Wait,
+    /// Register ready cycles are `base + ready[r]` (see [`Core::ready_at`]).
+    base: u64,
     /// The cycle the pending access is offered to the cache (first try or retry).
     pub access_at: u64,
-    /// Cycle the current access instruction was fetched (its first try).
-    pub fetched_at: u64,
+    /// Registers waiting for a miss.
+    pub pending: u32,
+    /// Registers last written by a data-cache load (a wait on them is a memory stall).
+    pub from_mem: u32,
+    /// Registers whose value came from a miss (their completion cycles are in
+    /// [`Chip::miss_done`]).
+    pub missed: u32,
+    pub ip: u32,
+    pub tm: u32,
+    /// First column of its instruction cache's banks in a calendar row.
+    pub icache_col: u32,
+    pub wait: Wait,
+    /// Cycle each register's value can be read, relative to `base`.
+    ready: [u32; 32],
+    pub run: Run,
     pub halted_at: u64,
     /// The pixel in progress and the cycle its `atominc` returned it.
     pub pixel: Option<u32>,
     pub pixel_since: u64,
+}
+
+impl Core {
+    /// The cycle register `r` can be read (meaningless while it waits for a miss).
+    #[inline(always)]
+    pub fn ready_at(&self, r: usize) -> u64 {
+        self.base + self.ready[r] as u64
+    }
+
+    /// Register `r` is readable from cycle `v` (at least the current cycle, so at least
+    /// `base`).
+    #[inline(always)]
+    pub fn set_ready(&mut self, r: usize, v: u64) {
+        debug_assert!(v >= self.base);
+        let off = v - self.base;
+        if off > u32::MAX as u64 {
+            self.rebase(v);
+            return self.set_ready(r, v);
+        }
+        self.ready[r] = off as u32;
+    }
+
+    /// Move `base` up to `v − 2^20` (ready times before it, all in the past, become it): a
+    /// TP never waits 2^20 cycles on one operand, so no decision changes.
+    #[cold]
+    fn rebase(&mut self, v: u64) {
+        let nb = v - (1 << 20);
+        for off in &mut self.ready {
+            let abs = self.base + *off as u64;
+            *off = abs.saturating_sub(nb) as u32;
+        }
+        self.base = nb;
+    }
 }
 
 /// The atomic pixel counter.
@@ -133,6 +168,9 @@ pub struct Chip<'a> {
     /// Calendar row width: the unit classes, then every instruction-cache bank of the TM.
     pub(crate) row_width: usize,
     pub(crate) cores: Vec<Core>,
+    /// Per TP and register: the completion cycle of the miss that wrote it (valid where
+    /// `Core::missed` says so; read by the reference engine's keys).
+    pub(crate) miss_done: Vec<[u64; 32]>,
     pub(crate) works: Vec<Work>,
     pub(crate) hier: Hierarchy<Dram>,
     atomic: Atomic,
@@ -216,15 +254,15 @@ impl<'a> Chip<'a> {
                     + (tp % cfg.tps_per_tm % cfg.icaches_per_tm) * cfg.icache_banks,
                 run: Run::new(ctx.program.next_pixel),
                 ip: 0,
+                base: 0,
                 ready: [0; 32],
                 pending: 0,
                 from_mem: 0,
-                miss_done: [0; 32],
+                missed: 0,
                 next_issue: 0,
                 key: 0,
                 wait: Wait::Ready,
                 access_at: 0,
-                fetched_at: 0,
                 halted_at: 0,
                 pixel: None,
                 pixel_since: 0,
@@ -238,6 +276,7 @@ impl<'a> Chip<'a> {
             fetch_cap: cfg.fetches_per_bank as u8,
             row_width: UNIT_CLASSES + banks as usize,
             cores,
+            miss_done: vec![[0; 32]; n],
             works: (0..n).map(|_| Work::new()).collect(),
             hier,
             atomic: Atomic::default(),
@@ -300,9 +339,9 @@ impl<'a> Chip<'a> {
         let core = &mut self.cores[tp];
         if d.dst != NO_REG && !d.class.is_sync() {
             let r = d.dst as usize;
-            core.ready[r] = c + lat;
+            core.set_ready(r, c + lat);
             core.from_mem &= !(1 << r);
-            core.miss_done[r] = 0;
+            core.missed &= !(1 << r);
         }
         core.ip += 1;
         let s = &mut self.issue;
@@ -319,42 +358,31 @@ impl<'a> Chip<'a> {
         s.register_writes += d.rf.1 as u64;
     }
 
-    /// The earliest cycle at which every register instruction `i` reads or writes is
-    /// readable (`u64::MAX` while one waits for a miss).
+    /// The earliest cycle from `s` at which every register instruction `i` reads or writes
+    /// is readable (the operands must be known), accounting the cycles before it: a cycle is a
+    /// memory stall while an operand written by a data-cache load is not yet readable, an
+    /// operand stall otherwise.
     #[inline]
-    pub(crate) fn operands_ready(&self, tp: usize, i: usize) -> u64 {
+    pub(crate) fn operands_ready(&mut self, tp: usize, i: usize, s: u64) -> u64 {
         let d = &self.dec[i];
         let core = &self.cores[tp];
-        let mut e = 0;
+        let (mut e, mut mem_until) = (s, 0);
         let mut m = d.regs;
         while m != 0 {
             let r = m.trailing_zeros() as usize;
             m &= m - 1;
-            e = e.max(core.ready[r]);
+            let ready = core.ready_at(r);
+            e = e.max(ready);
+            if core.from_mem & (1 << r) != 0 {
+                mem_until = mem_until.max(ready);
+            }
+        }
+        if e > s {
+            let mem = mem_until.clamp(s, e) - s;
+            self.issue.stall[Stall::Memory as usize] += mem;
+            self.issue.stall[Stall::Operand as usize] += e - s - mem;
         }
         e
-    }
-
-    /// Account the cycles `[from, to)` in which TP `tp` waited for the operands of `i`:
-    /// a cycle is a memory stall while an operand written by a data-cache load is not yet
-    /// readable, an operand stall otherwise.
-    #[inline]
-    pub(crate) fn operand_stalls(&mut self, tp: usize, i: usize, from: u64, to: u64) {
-        if to <= from {
-            return;
-        }
-        let d = &self.dec[i];
-        let core = &self.cores[tp];
-        let mut mem_until = 0;
-        let mut m = d.regs & core.from_mem;
-        while m != 0 {
-            let r = m.trailing_zeros() as usize;
-            m &= m - 1;
-            mem_until = mem_until.max(core.ready[r]);
-        }
-        let mem = mem_until.clamp(from, to) - from;
-        self.issue.stall[Stall::Memory as usize] += mem;
-        self.issue.stall[Stall::Operand as usize] += to - from - mem;
     }
 
     /// The key instruction `i` of TP `tp` arbitrates with: the TP's key, raised to the
@@ -364,11 +392,11 @@ impl<'a> Chip<'a> {
         let d = &self.dec[i];
         let core = &self.cores[tp];
         let mut k = core.key;
-        let mut m = d.regs;
+        let mut m = d.regs & core.missed;
         while m != 0 {
             let r = m.trailing_zeros() as usize;
             m &= m - 1;
-            k = k.max(core.miss_done[r]);
+            k = k.max(self.miss_done[tp][r]);
         }
         k
     }
@@ -402,9 +430,9 @@ impl<'a> Chip<'a> {
                 core.pixel = next_pixel;
                 core.pixel_since = t;
                 let r = dst as usize;
-                core.ready[r] = t + self.lat[Class::Atomic as usize];
+                core.set_ready(r, t + self.lat[Class::Atomic as usize]);
                 core.from_mem &= !(1 << r);
-                core.miss_done[r] = 0;
+                core.missed &= !(1 << r);
             }
             Class::Load | Class::Store => {
                 let Mem::Word { base, word } = d.mem else {
@@ -432,17 +460,17 @@ impl<'a> Chip<'a> {
                     Outcome::Done { ready, .. } => {
                         if op == MemOp::Read {
                             let r = dst as usize;
-                            core.ready[r] = ready;
+                            core.set_ready(r, ready);
                             core.from_mem |= 1 << r;
-                            core.miss_done[r] = 0;
+                            core.missed &= !(1 << r);
                         }
                     }
                     Outcome::Pending => {
                         debug_assert_eq!(op, MemOp::Read, "write-around writes are posted");
                         let r = dst as usize;
-                        core.ready[r] = u64::MAX;
                         core.pending |= 1 << r;
                         core.from_mem |= 1 << r;
+                        core.missed |= 1 << r;
                     }
                 }
             }
@@ -466,9 +494,9 @@ impl<'a> Chip<'a> {
         let tp = (c.tag >> 8) as usize;
         let r = (c.tag & 0xFF) as usize;
         let core = &mut self.cores[tp];
-        core.ready[r] = c.ready;
+        core.set_ready(r, c.ready);
         core.pending &= !(1 << r);
-        core.miss_done[r] = c.ready;
+        self.miss_done[tp][r] = c.ready;
         tp
     }
 

@@ -20,68 +20,86 @@ use std::collections::BinaryHeap;
 
 const EMPTY: u64 = u64::MAX;
 
-/// Per-TM rings of issue-slot counts: one row per cycle (the unit classes, then every
-/// instruction-cache bank), tagged with its cycle; rows of past cycles are reused.
+/// Per-TM rings of issue-slot counts: one row per cycle — its cycle (8 bytes), then a count
+/// per unit class and per instruction-cache bank — reused once its cycle is past.
 #[derive(Debug)]
 struct Calendar {
     tms: usize,
+    /// Counts per row.
     width: usize,
+    /// Bytes per row (the cycle tag, the counts, padding to 8).
+    stride: usize,
     slots: usize,
-    tags: Vec<u64>,
     data: Vec<u8>,
 }
 
+const TAG: usize = 8;
+
 impl Calendar {
     fn new(tms: usize, width: usize, slots: usize) -> Self {
-        Calendar {
+        let stride = (TAG + width).next_multiple_of(8);
+        let mut c = Calendar {
             tms,
             width,
+            stride,
             slots,
-            tags: vec![EMPTY; tms * slots],
-            data: vec![0; tms * slots * width],
+            data: vec![0; tms * slots * stride],
+        };
+        for i in 0..tms * slots {
+            c.set_tag(i, EMPTY);
         }
+        c
+    }
+
+    #[inline(always)]
+    fn tag(&self, i: usize) -> u64 {
+        let at = i * self.stride;
+        u64::from_le_bytes(self.data[at..at + TAG].try_into().expect("8 bytes"))
+    }
+
+    #[inline(always)]
+    fn set_tag(&mut self, i: usize, c: u64) {
+        let at = i * self.stride;
+        self.data[at..at + TAG].copy_from_slice(&c.to_le_bytes());
     }
 
     /// Double the ring (a booking reached further ahead than it holds); live rows move to
     /// their new places.
     fn grow(&mut self) {
-        let slots = self.slots * 2;
-        let mut tags = vec![EMPTY; self.tms * slots];
-        let mut data = vec![0; self.tms * slots * self.width];
+        let mut bigger = Calendar::new(self.tms, self.width, self.slots * 2);
         for tm in 0..self.tms {
             for s in 0..self.slots {
                 let old = tm * self.slots + s;
-                let c = self.tags[old];
+                let c = self.tag(old);
                 if c == EMPTY {
                     continue;
                 }
-                let new = tm * slots + (c as usize & (slots - 1));
-                tags[new] = c;
-                data[new * self.width..(new + 1) * self.width]
-                    .copy_from_slice(&self.data[old * self.width..(old + 1) * self.width]);
+                let new = tm * bigger.slots + (c as usize & (bigger.slots - 1));
+                let (o, n) = (old * self.stride, new * bigger.stride);
+                bigger.data[n..n + self.stride].copy_from_slice(&self.data[o..o + self.stride]);
             }
         }
-        self.slots = slots;
-        self.tags = tags;
-        self.data = data;
+        *self = bigger;
     }
 
-    /// The row of cycle `c` in TM `tm` (cleared if it held an older cycle; `now` is the
-    /// engine's current cycle: rows before it are dead).
+    /// The counts of cycle `c` in TM `tm` (cleared if the row held an older cycle; `now` is
+    /// the engine's current cycle: rows before it are dead).
     #[inline(always)]
     fn row(&mut self, tm: usize, c: u64, now: u64) -> &mut [u8] {
         loop {
             let i = tm * self.slots + (c as usize & (self.slots - 1));
-            let tag = self.tags[i];
+            let tag = self.tag(i);
             if tag != c {
                 if tag != EMPTY && tag >= now {
                     self.grow();
                     continue;
                 }
-                self.tags[i] = c;
-                self.data[i * self.width..(i + 1) * self.width].fill(0);
+                self.set_tag(i, c);
+                let at = i * self.stride;
+                self.data[at + TAG..at + self.stride].fill(0);
             }
-            return &mut self.data[i * self.width..(i + 1) * self.width];
+            let at = i * self.stride + TAG;
+            return &mut self.data[at..at + self.width];
         }
     }
 }
@@ -94,6 +112,9 @@ struct Wheel {
     slots: usize,
     tags: Vec<u64>,
     bits: Vec<u64>,
+    /// Per slot, one bit per word of `bits` that is not zero.
+    summary: Vec<u64>,
+    sum_words: usize,
     count: Vec<u32>,
     /// One bit per slot: it holds events.
     busy: Vec<u64>,
@@ -104,11 +125,14 @@ struct Wheel {
 impl Wheel {
     fn new(tps: usize, slots: usize) -> Self {
         let words = tps.div_ceil(64);
+        let sum_words = words.div_ceil(64);
         Wheel {
             words,
             slots,
             tags: vec![EMPTY; slots],
             bits: vec![0; slots * words],
+            summary: vec![0; slots * sum_words],
+            sum_words,
             count: vec![0; slots],
             busy: vec![0; slots.div_ceil(64)],
             far: BinaryHeap::new(),
@@ -128,10 +152,12 @@ impl Wheel {
             debug_assert_eq!(self.count[s], 0);
             self.tags[s] = c;
         }
-        let w = &mut self.bits[s * self.words + tp / 64];
+        let wi = tp / 64;
+        let w = &mut self.bits[s * self.words + wi];
         let b = 1u64 << (tp % 64);
         if *w & b == 0 {
             *w |= b;
+            self.summary[s * self.sum_words + wi / 64] |= 1 << (wi % 64);
             self.count[s] += 1;
             self.busy[s / 64] |= 1 << (s % 64);
         }
@@ -175,13 +201,16 @@ impl Wheel {
         if self.tags[s] != c || self.count[s] == 0 {
             return;
         }
-        for wi in 0..self.words {
-            let w = &mut self.bits[s * self.words + wi];
-            let mut b = *w;
-            *w = 0;
-            while b != 0 {
-                out.push((wi * 64) as u32 + b.trailing_zeros());
-                b &= b - 1;
+        for k in 0..self.sum_words {
+            let mut words = std::mem::take(&mut self.summary[s * self.sum_words + k]);
+            while words != 0 {
+                let wi = k * 64 + words.trailing_zeros() as usize;
+                words &= words - 1;
+                let mut b = std::mem::take(&mut self.bits[s * self.words + wi]);
+                while b != 0 {
+                    out.push((wi * 64) as u32 + b.trailing_zeros());
+                    b &= b - 1;
+                }
             }
         }
         self.count[s] = 0;
@@ -205,7 +234,7 @@ pub fn run(
         wheel.add(0, tp);
     }
     let mut batch: Vec<u32> = Vec::with_capacity(n);
-    let mut offers: Vec<(u64, u32)> = Vec::with_capacity(n);
+    let mut offers: Vec<(u32, u64, u32)> = Vec::with_capacity(n);
     let mut done = std::mem::take(&mut chip.completions);
     let mut last = 0;
     let mut ticks = 0u32;
@@ -236,19 +265,24 @@ pub fn run(
             }
         }
         wheel.take(t, &mut batch);
-        // First the cycle's accesses, oldest first (by key, ties by TP index); then every TP
-        // that resumes now — accepted or woken by a returned miss — books ahead with key `t`
-        // in TP order (`docs/TRAX.md`). A resuming TP's access in this cycle is offered in
-        // its turn: its key, `t`, is the largest of the cycle.
+        // First the cycle's accesses, TM by TM, oldest first (by key, ties by TP index); then
+        // every TP that resumes now — accepted or woken by a returned miss — books ahead with
+        // key `t` in TP order (`docs/TRAX.md`). A resuming TP's access in this cycle is
+        // offered in its turn: its key, `t`, is the largest of the cycle.
         offers.clear();
         offers.extend(
             batch
                 .iter()
                 .filter(|&&tp| chip.cores[tp as usize].wait == Wait::Access)
-                .map(|&tp| (chip.cores[tp as usize].key, tp)),
+                .map(|&tp| {
+                    let c = &chip.cores[tp as usize];
+                    (c.tm, c.key, tp)
+                }),
         );
-        offers.sort_unstable();
-        for &(_, tp) in &offers {
+        // The batch is in TP order, so TM by TM: order each TM's run by key (a few TPs:
+        // insertion sort).
+        insertion_sort(&mut offers);
+        for &(_, _, tp) in &offers {
             offer(chip, &mut wheel, tp as usize, t)?;
         }
         for &tp in &batch {
@@ -266,6 +300,19 @@ pub fn run(
     }
     chip.completions = done;
     Ok(last)
+}
+
+/// Sort nearly sorted, mostly tiny runs.
+fn insertion_sort<T: Ord + Copy>(v: &mut [T]) {
+    for i in 1..v.len() {
+        let x = v[i];
+        let mut j = i;
+        while j > 0 && v[j - 1] > x {
+            v[j] = v[j - 1];
+            j -= 1;
+        }
+        v[j] = x;
+    }
 }
 
 /// Offer TP `tp`'s pending access at cycle `t`; refused, it waits for the retry cycle.
@@ -323,9 +370,8 @@ fn run_ahead(
             return Ok(());
         }
         let s = core.next_issue;
-        let e = s.max(chip.operands_ready(tp, i));
+        let e = chip.operands_ready(tp, i, s);
         debug_assert!(e >= t, "booking in the past: {e} < {t}");
-        chip.operand_stalls(tp, i, s, e);
         // The first cycle from `e` whose unit (if any) and fetch bank have room.
         let unit = d.class.is_unit();
         let cls = d.class as usize;
@@ -364,7 +410,6 @@ fn run_ahead(
         let core = &mut chip.cores[tp];
         core.wait = Wait::Access;
         core.access_at = c;
-        core.fetched_at = c;
         if c > t {
             wheel.add(c, tp);
             return Ok(());

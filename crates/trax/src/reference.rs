@@ -4,8 +4,9 @@
 //! TP whose next instruction can issue (in order, its operands readable, no access pending)
 //! asks for its unit and fetch bank; requests are granted in order of priority key (ties by
 //! TP index) while the TM's units of the class and the bank's fetch ports have room; then the
-//! cycle's data-cache and atomic accesses are offered in the same priority order. Slow (its cost is
-//! cycles × TPs), plain, and the definition the fast engine is tested against.
+//! cycle's data-cache and atomic accesses are offered: first those booked before the cycle, TM
+//! by TM and oldest first, then those of TPs that resumed in the cycle, in TP order. Slow (its
+//! cost is cycles × TPs), plain, and the definition the fast engine is tested against.
 
 use crate::chip::{Chip, ChipError, Offered, Wait};
 use crate::fast::Progress;
@@ -67,7 +68,7 @@ pub fn run(
                     while r != 0 {
                         let k = r.trailing_zeros();
                         r &= r - 1;
-                        if core.ready[k as usize] > t {
+                        if core.ready_at(k as usize) > t {
                             m |= 1 << k;
                         }
                     }
@@ -110,15 +111,18 @@ pub fn run(
             if d.class.is_sync() {
                 core.wait = Wait::Access;
                 core.access_at = t;
-                core.fetched_at = t;
                 accesses.push(tp as u32);
             } else {
                 chip.retire_issue(tp, i, t);
             }
         }
-        // Oldest first (by key, ties by TP index), as for units and fetch banks.
+        // Two rounds: the accesses booked before this cycle, TM by TM, oldest first (by key,
+        // ties by TP index); then those of TPs that resumed this cycle (key `t`), in TP order.
         let cores = &chip.cores;
-        accesses.sort_unstable_by_key(|&tp| (cores[tp as usize].key, tp));
+        accesses.sort_unstable_by_key(|&tp| {
+            let c = &cores[tp as usize];
+            (c.key == t, c.tm, c.key, tp)
+        });
         for &tp in &accesses {
             let tp = tp as usize;
             let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
