@@ -8,7 +8,7 @@
 //! files.
 
 mod functional;
-mod trax;
+pub(crate) mod trax;
 
 use crate::cli::SceneArgs;
 use crate::run_config::Flag;
@@ -90,7 +90,8 @@ pub mod erased {
     }
 }
 
-pub fn run(args: SimulateArgs) -> Result<()> {
+/// The config flags `args` set (the scene flags aside).
+pub(crate) fn flags(args: &SimulateArgs) -> Result<Vec<Flag>> {
     if let Some(w) = &args.window
         && w.len() != 4
     {
@@ -131,6 +132,11 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             .as_ref()
             .map(|o| Value::String(o.display().to_string())),
     );
+    Ok(flags)
+}
+
+pub fn run(args: SimulateArgs) -> Result<()> {
+    let flags = flags(&args)?;
     let session = session::open(&args.scene, &flags, false)?;
     let preset = session.resolved.config.arch.preset.clone();
     let out = match preset.as_str() {

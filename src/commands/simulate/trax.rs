@@ -34,7 +34,19 @@ fn si(n: u64) -> String {
     }
 }
 
-pub fn run(s: &Session) -> Result<SimOutput> {
+/// A frame run on the chip, with its host cost.
+pub(crate) struct Ran {
+    pub out: rtsim_trax::Output,
+    pub params: rtsim_trace::WorkloadParams,
+    /// The pixels simulated (the window's).
+    pub pixels: Vec<u32>,
+    /// Wall-clock and process CPU seconds of the simulation alone (not the BVH build).
+    pub seconds: f64,
+    pub cpu_seconds: Option<f64>,
+}
+
+/// Run the session's frame on the TRaX chip, with a progress bar on terminals.
+pub(crate) fn frame(s: &Session) -> Result<Ran> {
     let cfg = &s.resolved.config;
     let params = rtsim_run::workload_params(&s.resolved);
     let integ = Integrator::new(&s.resolved.scene, &s.tracer, params.clone());
@@ -45,6 +57,7 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         SimMode::Reference => Engine::Reference,
     };
     let bar = crate::progress::bar(pixels.len() as u64, "pixels");
+    let cpu_start = crate::cputime::process_seconds();
     let start = Instant::now();
     let out = rtsim_trax::simulate(
         &cfg.arch.trax,
@@ -66,8 +79,30 @@ pub fn run(s: &Session) -> Result<SimOutput> {
             bar.set_message(format!("{} cycles, {} rays", si(p.cycle), si(p.rays)));
         },
     )?;
-    bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
+    let cpu_seconds = crate::cputime::process_seconds()
+        .zip(cpu_start)
+        .map(|(b, a)| b - a);
+    bar.finish_and_clear();
+    Ok(Ran {
+        out,
+        params,
+        pixels,
+        seconds,
+        cpu_seconds,
+    })
+}
+
+pub fn run(s: &Session) -> Result<SimOutput> {
+    let cfg = &s.resolved.config;
+    let Ran {
+        out,
+        params,
+        pixels,
+        seconds,
+        ..
+    } = frame(s)?;
+    let (w, h) = (params.width, params.height);
     let r = &out.report;
     let mut summary = vec![format!(
         "arch             {} ({} pixels of {}x{}, {} rays, traversal {})",
