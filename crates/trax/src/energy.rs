@@ -8,7 +8,7 @@
 //! assumed), its local store 0.00693 nJ and its per-operation energies.
 
 use crate::config::TraxConfig;
-use crate::isa::{Class, UNIT_CLASSES};
+use crate::isa::Class;
 use crate::stats::IssueStats;
 use serde::Serialize;
 
@@ -111,7 +111,6 @@ impl Energy {
         let atomic = issue.count(Class::Atomic) as f64 * cfg.energy.atomic_nj * NJ;
         units_by_class.insert("atomic", atomic);
         units += atomic;
-        let _ = UNIT_CLASSES;
         let fetches = issue.total_instructions();
         let local = issue.count(Class::LocalLoad) + issue.count(Class::LocalStore);
         let mut e = Energy {
