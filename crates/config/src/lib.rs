@@ -50,6 +50,28 @@ pub enum ConfigError {
 }
 
 impl ConfigError {
+    /// The same error with `prefix` put before its key (a section's own validation names
+    /// keys relative to the section: `prefixed("dram.")` makes `timing.nRCD` `dram.timing.nRCD`).
+    /// Errors without a key are returned as they are.
+    pub fn prefixed(self, prefix: &str) -> Self {
+        match self {
+            ConfigError::Key { key, message } => ConfigError::Key {
+                key: format!("{prefix}{key}"),
+                message,
+            },
+            ConfigError::Range {
+                key,
+                value,
+                allowed,
+            } => ConfigError::Range {
+                key: format!("{prefix}{key}"),
+                value,
+                allowed,
+            },
+            other => other,
+        }
+    }
+
     /// A value outside its allowed range (`allowed` is human-readable, e.g. "1..=64").
     pub fn range(key: &str, value: impl fmt::Display, allowed: impl fmt::Display) -> Self {
         ConfigError::Range {
@@ -493,6 +515,16 @@ mod tests {
         l.set("inner.bins=1").unwrap();
         let e = l.build::<Root>().unwrap_err().to_string();
         assert!(e.contains("inner.bins") && e.contains("2..=256"), "{e}");
+    }
+
+    #[test]
+    fn a_prefix_goes_before_the_key_of_key_and_range_errors_only() {
+        let e = ConfigError::range("timing.nRCD", 0, "1..=100").prefixed("dram.");
+        assert!(e.to_string().contains("`dram.timing.nRCD` = 0"), "{e}");
+        let e = ConfigError::key("l1.size_bytes", "too big").prefixed("arch.trax.");
+        assert!(e.to_string().contains("`arch.trax.l1.size_bytes`"), "{e}");
+        let e = ConfigError::unknown("preset", "x", &["a"]).prefixed("dram.");
+        assert!(!e.to_string().contains("dram."), "{e}");
     }
 
     #[test]

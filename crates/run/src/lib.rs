@@ -140,7 +140,7 @@ impl Validate for RunConfig {
         }
         let (w, h, _) = self.workload.resolved_size();
         self.sim.validate_for(w, h)?;
-        self.dram.validate().map_err(|e| prefixed("dram", e))?;
+        self.dram.validate().map_err(|e| e.prefixed("dram."))?;
         if self.trace.traversal == Traversal::BitStack
             && self.bvh.max_depth > rtsim_trace::step::bitstack::MAX_LEVELS
         {
@@ -161,26 +161,6 @@ impl Validate for RunConfig {
             ));
         }
         Ok(())
-    }
-}
-
-/// A section's own validation errors name keys relative to it; put the section in front.
-fn prefixed(section: &str, e: ConfigError) -> ConfigError {
-    match e {
-        ConfigError::Key { key, message } => ConfigError::Key {
-            key: format!("{section}.{key}"),
-            message,
-        },
-        ConfigError::Range {
-            key,
-            value,
-            allowed,
-        } => ConfigError::Range {
-            key: format!("{section}.{key}"),
-            value,
-            allowed,
-        },
-        other => other,
     }
 }
 

@@ -234,7 +234,8 @@ impl<'a> Chip<'a> {
         lat[Class::LocalLoad as usize] = cfg.local_latency as u64;
         lat[Class::LocalStore as usize] = cfg.local_latency as u64;
         lat[Class::Atomic as usize] = cfg.atomic.latency as u64;
-        let topo = Topology::from_config(&cfg.cache_config(seed)).map_err(prefix_cache)?;
+        let topo =
+            Topology::from_config(&cfg.cache_config(seed)).map_err(|e| e.prefixed("arch.trax."))?;
         let l2s = cfg.cache_config(seed).l2_count().max(1);
         let memory = Dram::new(
             dram,
@@ -243,7 +244,7 @@ impl<'a> Chip<'a> {
                 tags: l2s,
             },
         )
-        .map_err(prefix_dram)?;
+        .map_err(|e| e.prefixed("dram."))?;
         let hier = Hierarchy::new(topo, memory)?;
         let n = cfg.total_tps() as usize;
         let banks = cfg.icaches_per_tm * cfg.icache_banks;
@@ -513,33 +514,6 @@ impl<'a> Chip<'a> {
     /// A colour for tests.
     pub fn pixel_color(&self, p: usize) -> Vec3 {
         self.pixels[p].color
-    }
-}
-
-fn prefix_cache(e: ConfigError) -> ConfigError {
-    prefix_key(e, "arch.trax.")
-}
-
-fn prefix_dram(e: ConfigError) -> ConfigError {
-    prefix_key(e, "dram.")
-}
-
-fn prefix_key(e: ConfigError, p: &str) -> ConfigError {
-    match e {
-        ConfigError::Key { key, message } => ConfigError::Key {
-            key: format!("{p}{key}"),
-            message,
-        },
-        ConfigError::Range {
-            key,
-            value,
-            allowed,
-        } => ConfigError::Range {
-            key: format!("{p}{key}"),
-            value,
-            allowed,
-        },
-        other => other,
     }
 }
 
