@@ -16,8 +16,9 @@ use crate::session::{self, Session};
 use anyhow::{Context, Result};
 use clap::Args;
 use rtsim_core::output::write_atomic;
+use rtsim_run::facts::{BvhFacts, RayFacts, SceneFacts, WorkloadFacts};
 use rtsim_trace::film::{heatmap_rgb8, write_png};
-use rtsim_trace::{PixelResult, ToneMap, WorkloadKind};
+use rtsim_trace::{FrameStats, PixelResult, ToneMap, WorkloadKind, WorkloadParams};
 use serde::Serialize;
 use std::path::PathBuf;
 use toml::Value;
@@ -66,6 +67,36 @@ pub struct SimOutput {
     pub timing: Timing,
     /// Lines of the terminal summary.
     pub summary: Vec<String>,
+}
+
+/// What every architecture's `stats.json` starts with: the run's scene, BVH, workload and
+/// rays.
+#[derive(Debug, Serialize)]
+pub struct RunFacts {
+    rtsim_version: &'static str,
+    arch: String,
+    scene: SceneFacts,
+    bvh: BvhFacts,
+    workload: WorkloadFacts,
+    traversal: &'static str,
+    /// Pixels simulated (the window's).
+    pixels: u64,
+    rays: RayFacts,
+}
+
+impl RunFacts {
+    pub fn of(s: &Session, params: &WorkloadParams, pixels: usize, rays: &FrameStats) -> Self {
+        RunFacts {
+            rtsim_version: env!("CARGO_PKG_VERSION"),
+            arch: s.resolved.config.arch.preset.clone(),
+            scene: SceneFacts::of(&s.resolved.scene),
+            bvh: BvhFacts::of(s.tracer.bvh(), Some(&s.image)),
+            workload: WorkloadFacts::of(params),
+            traversal: s.tracer.traversal().name(),
+            pixels: pixels as u64,
+            rays: RayFacts::of(rays, params.kind),
+        }
+    }
 }
 
 /// Host figures of a run.

@@ -1,10 +1,9 @@
 //! `arch.preset = "trax-baseline"`: the TRaX chip (`rtsim-trax`), cycle by cycle.
 
-use super::{SimOutput, Timing};
+use super::{RunFacts, SimOutput, Timing};
 use crate::session::Session;
 use anyhow::Result;
 use rtsim_run::SimMode;
-use rtsim_run::facts::{BvhFacts, RayFacts, SceneFacts, WorkloadFacts};
 use rtsim_trace::Integrator;
 use rtsim_trax::{Engine, Frame, Options, TraxReport};
 use serde::Serialize;
@@ -12,15 +11,8 @@ use std::time::Instant;
 
 #[derive(Debug, Serialize)]
 struct TraxStats {
-    rtsim_version: &'static str,
-    arch: String,
-    scene: SceneFacts,
-    bvh: BvhFacts,
-    workload: WorkloadFacts,
-    traversal: &'static str,
-    /// Pixels simulated (the window's).
-    pixels: u64,
-    rays: RayFacts,
+    #[serde(flatten)]
+    run: RunFacts,
     trax: TraxReport,
 }
 
@@ -126,14 +118,7 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         heat: out.heat.clone(),
         heat_label: "core cycles",
         stats: Box::new(TraxStats {
-            rtsim_version: env!("CARGO_PKG_VERSION"),
-            arch: cfg.arch.preset.clone(),
-            scene: SceneFacts::of(&s.resolved.scene),
-            bvh: BvhFacts::of(s.tracer.bvh(), Some(&s.image)),
-            workload: WorkloadFacts::of(&params),
-            traversal: s.tracer.traversal().name(),
-            pixels: pixels.len() as u64,
-            rays: RayFacts::of(&out.rays, params.kind),
+            run: RunFacts::of(s, &params, pixels.len(), &out.rays),
             trax: out.report,
         }),
         pixels: out.pixels,
