@@ -28,6 +28,9 @@ pub enum Command {
     Scenes(ScenesArgs),
     /// Measure tracing throughput (Mrays/s) and BVH build time.
     Bench(BenchArgs),
+    /// Measure the TRaX chip model's speed: simulated cycles, TP-cycles and instructions per
+    /// host second, and peak memory (full chip on Sibenik, 200,000 cycles, by default).
+    BenchSim(crate::commands::bench_sim::BenchSimArgs),
     /// Run the DRAM model alone on a request trace or synthetic traffic (see docs/DRAM.md).
     Dram(crate::commands::dram::DramArgs),
     /// Replay an address trace through a cache hierarchy, functionally or timed (docs/CACHES.md).

@@ -1,6 +1,7 @@
 //! One module per subcommand; each owns its clap arguments where they are its alone.
 
 pub mod bench;
+pub mod bench_sim;
 pub mod bvh_stats;
 pub mod cache;
 pub mod compare;
@@ -29,6 +30,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::BvhStats(a) => bvh_stats::run(a),
         Command::Scenes(a) => scenes::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::BenchSim(a) => bench_sim::run(a),
         Command::Dram(a) => dram::run(a),
         Command::Cache(a) => cache::run(a),
         Command::Compare(a) => compare::run(a),

@@ -65,10 +65,18 @@ pub struct CacheLevel {
     /// Default true.
     pub write_hit_updates_lru: bool,
     /// Banks, a power of two in 1..=256; each serves one access per cycle. The bank of an
-    /// access is its line address modulo `banks` (the address bits just above the line
-    /// offset), so consecutive lines go to consecutive banks. L1 default 8, L2 default 16
+    /// access is `(address / bank_bytes) mod banks`; with the default `bank_bytes` (the line)
+    /// that is the line address modulo `banks` (the address bits just above the line offset),
+    /// so consecutive lines go to consecutive banks. L1 default 8, L2 default 16
     /// (assumed: the papers say "banked" without a count; SGRT's L2 has 8, SGRT §4).
     pub banks: u32,
+    /// Interleaving of the banks in bytes, a power of two in 4..=`line_bytes`: the bank of an
+    /// access is `(address / bank_bytes) mod banks`. Unset (the default) = `line_bytes`: whole
+    /// lines interleave. SimTRaX's L1 interleaves words (4: `bank_id = address % num_banks` on
+    /// word addresses, `sim/L1Cache.cc`), so a TP's consecutive word loads go to consecutive
+    /// banks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bank_bytes: Option<u32>,
     /// Cycles from an access to its data on a hit (and to the request reaching the next level
     /// on a miss), 1..=10000. L1 default 1, L2 default 3 (SimTRaX, DESIGN.md §3).
     pub hit_latency: u32,
@@ -95,6 +103,7 @@ impl CacheLevel {
             write_policy: WritePolicy::WriteAround,
             write_hit_updates_lru: true,
             banks: 8,
+            bank_bytes: None,
             hit_latency: 1,
             mshrs: 32,
             write_buffer: 8,
@@ -111,6 +120,11 @@ impl CacheLevel {
             write_buffer: 64,
             ..Self::trax_l1()
         }
+    }
+
+    /// Bytes per bank before the next bank (`bank_bytes`, or the line).
+    pub fn bank_interleave(&self) -> u32 {
+        self.bank_bytes.unwrap_or(self.line_bytes)
     }
 
     /// Sets of the cache (valid after validation).
@@ -156,6 +170,9 @@ impl CacheLevel {
             ));
         }
         pow2("banks", self.banks.into(), 1, 256)?;
+        if let Some(b) = self.bank_bytes {
+            pow2("bank_bytes", b.into(), 4, self.line_bytes.into())?;
+        }
         check_range(&key("hit_latency"), self.hit_latency, 1, 10_000)?;
         check_range(&key("mshrs"), self.mshrs, 1, 4096)?;
         check_range(&key("write_buffer"), self.write_buffer, 1, 4096)?;

@@ -23,8 +23,8 @@
 //! # Timing rules
 //!
 //! - **Banks.** A cache of `banks` banks (a power of two) sends an access to bank
-//!   `line_address mod banks` — the address bits just above the line offset — and each bank
-//!   does one lookup per cycle. At an L1 a second access to a busy bank is refused
+//!   `(address / bank_bytes) mod banks` — by default `bank_bytes` is the line, so the bank is
+//!   the address bits just above the line offset — and each bank does one lookup per cycle. At an L1 a second access to a busy bank is refused
 //!   (`Busy`, retry next cycle); at an inner cache (an L2) it waits for the bank's next free
 //!   cycle. Each such conflict is counted once per attempt.
 //! - **Hits** are ready `hit_latency` cycles after the lookup.
@@ -161,6 +161,7 @@ struct Node {
     parent: Parent,
     latency: u64,
     bank_mask: u64,
+    bank_shift: u32,
     bank_free: Vec<u64>,
     mshrs: Vec<Mshr>,
     free_mshrs: Vec<usize>,
@@ -178,7 +179,7 @@ impl Node {
         self.cache.line_of(addr)
     }
     fn bank(&self, addr: u64) -> usize {
-        (self.line(addr) & self.bank_mask) as usize
+        ((addr >> self.bank_shift) & self.bank_mask) as usize
     }
     fn mshrs_used(&self) -> usize {
         self.mshrs.len() - self.free_mshrs.len()
@@ -225,6 +226,9 @@ pub struct Hierarchy<M> {
     completions: Vec<Completion>,
     mem_buf: Vec<MemCompletion>,
     now: u64,
+    /// Every event at or before this cycle has been handled (events are only ever added
+    /// after it), so advancing to it again is free.
+    settled: Option<u64>,
     memory_tags: u32,
 }
 
@@ -275,6 +279,7 @@ impl<M: MemoryPort> Hierarchy<M> {
                     parent: n.parent,
                     latency: c.hit_latency.into(),
                     bank_mask: u64::from(c.banks - 1),
+                    bank_shift: c.bank_interleave().trailing_zeros(),
                     bank_free: vec![0; c.banks as usize],
                     mshrs: vec![Mshr::default(); c.mshrs as usize],
                     free_mshrs: (0..c.mshrs as usize).rev().collect(),
@@ -296,6 +301,7 @@ impl<M: MemoryPort> Hierarchy<M> {
             completions: Vec::new(),
             mem_buf: Vec::new(),
             now: 0,
+            settled: None,
             memory_tags,
         })
     }
@@ -335,10 +341,16 @@ impl<M: MemoryPort> Hierarchy<M> {
 
     /// Handle everything due up to and including `cycle`.
     pub fn advance_to(&mut self, cycle: u64) -> Result<(), HierarchyError> {
+        // Requests submitted at a settled cycle only add events after it (every latency is at
+        // least one cycle), so a chip offering many accesses in one cycle pays once.
+        if self.settled.is_some_and(|s| cycle <= s) {
+            return Ok(());
+        }
         while let Some(t) = self.next_event().filter(|&t| t <= cycle) {
             self.step(t)?;
         }
         self.now = self.now.max(cycle);
+        self.settled = Some(cycle);
         Ok(())
     }
 
@@ -437,6 +449,10 @@ impl<M: MemoryPort> Hierarchy<M> {
     }
 
     fn push(&mut self, t: u64, ev: Ev) -> Result<(), HierarchyError> {
+        debug_assert!(
+            self.settled.is_none_or(|s| t > s),
+            "event at {t} behind the settled cycle"
+        );
         Ok(self.events.push(t, ev)?)
     }
 

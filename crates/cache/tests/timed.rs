@@ -425,3 +425,49 @@ fn sparse_accesses_count_as_the_functional_model() {
         }
     }
 }
+
+/// With word-interleaved banks, consecutive words of one line are in different banks; with the
+/// default, every word of a line is in one bank.
+#[test]
+fn bank_interleaving_follows_bank_bytes() {
+    let run = |bank_bytes: Option<u32>| {
+        let cfg = CacheConfig {
+            levels: 1,
+            l1: CacheLevel {
+                bank_bytes,
+                ..CacheLevel::trax_l1()
+            },
+            ..CacheConfig::default()
+        };
+        let topo = Topology::from_config(&cfg).unwrap();
+        let mut h = Hierarchy::new(topo, FixedLatency::new(10, 64, 64, 1)).unwrap();
+        // Two requesters read words 0 and 4 of one line in the same cycle.
+        let mut outs = Vec::new();
+        for (tag, addr) in [(0u64, 0x1000u64), (1, 0x1004)] {
+            outs.push(
+                h.submit(Request {
+                    cycle: 5,
+                    l1: 0,
+                    addr,
+                    op: MemOp::Read,
+                    tag,
+                })
+                .unwrap(),
+            );
+        }
+        (outs, h.stats(0).bank_conflicts)
+    };
+    let (outs, conflicts) = run(None);
+    assert!(matches!(outs[1], Outcome::Busy { retry_at: 6, .. }));
+    assert_eq!(conflicts, 1);
+    let (outs, conflicts) = run(Some(4));
+    assert!(!matches!(outs[1], Outcome::Busy { .. }));
+    assert_eq!(conflicts, 0);
+    // Out of range is refused by name.
+    let bad = CacheLevel {
+        bank_bytes: Some(128),
+        ..CacheLevel::trax_l1()
+    };
+    let e = bad.validate_at("l1").unwrap_err().to_string();
+    assert!(e.contains("l1.bank_bytes"), "{e}");
+}

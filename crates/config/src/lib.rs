@@ -726,6 +726,18 @@ mod tests {
     }
 
     #[test]
+    fn a_prefix_goes_before_the_key_of_key_and_range_errors_only() {
+        let e = ConfigError::key("dram.x", "bad").under("dram");
+        assert!(e.to_string().contains("`dram.x`"), "{e}");
+        let e = ConfigError::range("timing.nRCD", 0, "1..=100").under("dram");
+        assert!(e.to_string().contains("`dram.timing.nRCD` = 0"), "{e}");
+        let e = ConfigError::key("l1.size_bytes", "too big").under("arch.trax");
+        assert!(e.to_string().contains("`arch.trax.l1.size_bytes`"), "{e}");
+        let e = ConfigError::unknown("preset", "x", &["a"]).under("dram");
+        assert!(!e.to_string().contains("dram."), "{e}");
+    }
+
+    #[test]
     fn parse_error_names_origin_and_line() {
         let mut l = Layers::new();
         let e = l

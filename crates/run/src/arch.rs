@@ -4,8 +4,9 @@
 //! user's layers (`rtsim_config::assemble`); it may set keys of any section — a chip picks its
 //! traversal variant, triangle test, memory layout and DRAM standard — and the user's file,
 //! flags and `--set`s override any of them. `functional` (the default) is the functional
-//! tracer alone: no timing. Each chip model's own settings are a table of `[arch]`
-//! (`arch.sgrt.*`: `rtsim_sgrt::SgrtConfig`).
+//! tracer alone: no timing. Each chip model's own settings are a table of `[arch]`:
+//! `trax-baseline` is the TRaX chip of the STRaTA paper's baseline (`rtsim-trax`,
+//! `arch.trax.*`); the `sgrt` presets are SGRT (`rtsim-sgrt`, `arch.sgrt.*`).
 
 use rtsim_config::{ConfigError, Validate};
 use serde::{Deserialize, Serialize};
@@ -23,6 +24,9 @@ pub struct ArchConfig {
     /// SGRT's settings (`arch.sgrt.*`, documented in `rtsim_sgrt::config`); used by the `sgrt`
     /// presets.
     pub sgrt: rtsim_sgrt::SgrtConfig,
+    /// The TRaX chip (`trax-baseline`): every parameter, documented in
+    /// `rtsim_trax::TraxConfig` and `docs/TRAX.md`.
+    pub trax: rtsim_trax::TraxConfig,
 }
 
 impl Default for ArchConfig {
@@ -30,14 +34,23 @@ impl Default for ArchConfig {
         ArchConfig {
             preset: DEFAULT.into(),
             sgrt: rtsim_sgrt::SgrtConfig::default(),
+            trax: rtsim_trax::TraxConfig::default(),
         }
+    }
+}
+
+impl ArchConfig {
+    /// Whether the run's machine is the TRaX chip (its section must then fit the run).
+    pub fn is_trax(&self) -> bool {
+        self.preset == "trax-baseline"
     }
 }
 
 impl Validate for ArchConfig {
     fn validate(&self) -> Result<(), ConfigError> {
         preset(&self.preset)?;
-        self.sgrt.validate()
+        self.sgrt.validate()?;
+        self.trax.validate()
     }
 }
 
@@ -101,7 +114,36 @@ pub const ARCH_PRESETS: &[ArchPreset] = &[
             sgrt_common!()
         ),
     },
+    ArchPreset {
+        name: "trax-baseline",
+        about: "the TRaX baseline chip of the STRaTA paper (128 TMs x 32 TPs at 1 GHz, 4 MB L2, \
+                GDDR5): cycle-level timing and energy (docs/TRAX.md)",
+        toml: TRAX_BASELINE,
+    },
 ];
+
+/// The TRaX baseline: the chip's own parameters are `arch.trax.*`'s defaults (each cited in
+/// `rtsim_trax::TraxConfig`); the preset picks what the chip needs from the other sections.
+const TRAX_BASELINE: &str = r#"
+[trace]
+# STRaTA §3.2 and §5: the baseline keeps a full traversal stack in the TP's 512 B local memory
+# and visits the nearer child first.
+traversal = "stack"
+order = "nearest-first"
+# DESIGN.md §2: Möller–Trumbore is the baseline TRaX triangle kernel.
+triangle_test = "moller-trumbore"
+
+[memory]
+# SimTRaX lays nodes out so that sibling pairs share a 64-byte line (BVH::LoadIntoMemory;
+# docs/MEMORY_IMAGE.md); the baseline has no treelets.
+layout = "linear"
+align_sibling_pairs = true
+
+[dram]
+# DESIGN.md §3: what the STRaTA authors simulated (16 x 32 GB/s channels, DDR3-1600 timings
+# at 2 GHz, DDR3 currents x 16 chips) is the model that reproduces Table 1's DRAM energies.
+preset = "gddr5-trax"
+"#;
 
 /// Look up a preset by name.
 pub fn preset(name: &str) -> Result<&'static ArchPreset, ConfigError> {

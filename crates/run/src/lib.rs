@@ -144,6 +144,9 @@ impl Validate for RunConfig {
         self.trace.validate()?;
         self.workload.validate()?;
         self.arch.validate()?;
+        if self.arch.is_trax() {
+            self.arch.trax.validate_run(&self.trace)?;
+        }
         let (w, h, _) = self.workload.resolved_size();
         self.sim.validate_for(w, h)?;
         self.dram.validate().map_err(|e| e.under("dram"))?;

@@ -146,3 +146,39 @@ fn a_viewpoint_replaces_the_camera_and_an_unknown_one_is_named() {
         "{e}"
     );
 }
+
+#[test]
+fn the_trax_preset_sets_its_sections_and_validates_the_chip() {
+    let c = build(&["arch.preset=trax-baseline"]).unwrap();
+    assert!(c.arch.is_trax());
+    assert_eq!(c.trace.traversal, rtsim_trace::Traversal::Stack);
+    assert_eq!(
+        c.trace.triangle_test,
+        rtsim_trace::TriangleTest::MollerTrumbore
+    );
+    assert_eq!(c.dram.preset, "gddr5-trax");
+    assert_eq!(c.arch.trax, rtsim_trax::TraxConfig::default());
+    let c = build(&["arch.preset=trax-baseline", "arch.trax.tms=4"]).unwrap();
+    assert_eq!(c.arch.trax.tms, 4);
+    let e = build(&["arch.preset=trax-baseline", "arch.trax.tms=0"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("arch.trax.tms"), "{e}");
+    let e = build(&[
+        "arch.preset=trax-baseline",
+        "arch.trax.units.fp_add.count=0",
+    ])
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("arch.trax.units.fp_add.count"), "{e}");
+    let e = build(&["arch.preset=trax-baseline", "trace.traversal=bit-stack"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("trace.traversal"), "{e}");
+    let e = build(&["arch.preset=trax-baseline", "arch.trax.warp=1"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("arch.trax.warp"), "{e}");
+    // The functional arch does not care which traversal runs.
+    build(&["trace.traversal=bit-stack"]).unwrap();
+}

@@ -237,6 +237,8 @@ fn read_only_level() -> CacheLevel {
         write_policy: WritePolicy::WriteAround,
         write_hit_updates_lru: true,
         banks: 2,
+        // Whole lines per bank (the cache crate's default; SGRT does not say).
+        bank_bytes: None,
         hit_latency: 1,
         mshrs: 16,
         write_buffer: 4,

@@ -1,27 +1,12 @@
 //! `arch.preset = "functional"`: the functional tracer, no timing — the reference every chip
 //! model's image and counters are compared with.
 
-use super::{SimOutput, Timing};
+use super::{RunFacts, SimOutput, Timing};
 use crate::session::Session;
 use anyhow::Result;
 use rayon::prelude::*;
-use rtsim_run::facts::{BvhFacts, RayFacts, SceneFacts, WorkloadFacts};
 use rtsim_trace::{FrameStats, Integrator, PixelResult};
-use serde::Serialize;
 use std::time::Instant;
-
-#[derive(Debug, Serialize)]
-struct FunctionalStats {
-    rtsim_version: &'static str,
-    arch: &'static str,
-    scene: SceneFacts,
-    bvh: BvhFacts,
-    workload: WorkloadFacts,
-    traversal: &'static str,
-    /// Pixels traced (the window's).
-    pixels: u64,
-    rays: RayFacts,
-}
 
 pub fn run(s: &Session) -> Result<SimOutput> {
     let cfg = &s.resolved.config;
@@ -61,16 +46,7 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         heat: pixels.iter().map(|p| p.nodes_visited as u64).collect(),
         heat_label: "nodes visited",
         pixels,
-        stats: Box::new(FunctionalStats {
-            rtsim_version: env!("CARGO_PKG_VERSION"),
-            arch: "functional",
-            scene: SceneFacts::of(&s.resolved.scene),
-            bvh: BvhFacts::of(s.tracer.bvh(), Some(&s.image)),
-            workload: WorkloadFacts::of(&params),
-            traversal: s.tracer.traversal().name(),
-            pixels: todo.len() as u64,
-            rays: RayFacts::of(&stats, params.kind),
-        }),
+        stats: Box::new(RunFacts::of(s, &params, todo.len(), &stats)),
         timing: Timing {
             threads: s.pool.current_num_threads(),
             bvh_build_seconds: s.build_seconds,

@@ -9,6 +9,7 @@
 
 mod functional;
 pub mod sgrt;
+pub(crate) mod trax;
 
 use crate::cli::SceneArgs;
 use crate::commands::FrameOutputs;
@@ -16,8 +17,9 @@ use crate::run_config::Flag;
 use crate::session::{self, Session};
 use anyhow::Result;
 use clap::Args;
+use rtsim_run::facts::{BvhFacts, RayFacts, SceneFacts, WorkloadFacts};
 use rtsim_trace::film::heatmap_rgb8;
-use rtsim_trace::{PixelResult, ToneMap, WorkloadKind};
+use rtsim_trace::{FrameStats, PixelResult, ToneMap, WorkloadKind, WorkloadParams};
 use serde::Serialize;
 use std::path::PathBuf;
 use toml::Value;
@@ -149,6 +151,36 @@ fn extra_outputs(r: &rtsim_run::Resolved) -> &'static [&'static str] {
     }
 }
 
+/// What every architecture's `stats.json` starts with: the run's scene, BVH, workload and
+/// rays.
+#[derive(Debug, Serialize)]
+pub struct RunFacts {
+    rtsim_version: &'static str,
+    arch: String,
+    scene: SceneFacts,
+    bvh: BvhFacts,
+    workload: WorkloadFacts,
+    traversal: &'static str,
+    /// Pixels simulated (the window's).
+    pixels: u64,
+    rays: RayFacts,
+}
+
+impl RunFacts {
+    pub fn of(s: &Session, params: &WorkloadParams, pixels: usize, rays: &FrameStats) -> Self {
+        RunFacts {
+            rtsim_version: env!("CARGO_PKG_VERSION"),
+            arch: s.resolved.config.arch.preset.clone(),
+            scene: SceneFacts::of(&s.resolved.scene),
+            bvh: BvhFacts::of(s.tracer.bvh(), Some(&s.image)),
+            workload: WorkloadFacts::of(params),
+            traversal: s.tracer.traversal().name(),
+            pixels: pixels as u64,
+            rays: RayFacts::of(rays, params.kind),
+        }
+    }
+}
+
 /// Host figures of a run.
 #[derive(Debug, Default, Serialize)]
 pub struct Timing {
@@ -171,11 +203,17 @@ pub mod erased {
     }
 }
 
-pub fn run(args: SimulateArgs) -> Result<()> {
+/// The config flags `args` set (the scene flags aside).
+pub(crate) fn flags(args: &SimulateArgs) -> Result<Vec<Flag>> {
     let mut flags = args.frame.flags()?;
     if let Some(a) = &args.arch {
         flags.push(("arch.preset", Value::String(a.clone())));
     }
+    Ok(flags)
+}
+
+pub fn run(args: SimulateArgs) -> Result<()> {
+    let flags = flags(&args)?;
     let resolved = crate::run_config::resolve(&args.scene, &flags)?;
     // Pre-flight: every output is checked and staged before the (possibly hours-long) run.
     let outputs = crate::commands::FrameOutputs::prepare_with(
@@ -187,10 +225,11 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let preset = session.resolved.config.arch.preset.clone();
     let out = match preset.as_str() {
         "functional" => functional::run(&session)?,
+        "trax-baseline" => trax::run(&session)?,
         "sgrt" | "sgrt-sptrv" | "sgrt-1" => sgrt::run(&session)?,
         other => anyhow::bail!(
-            "arch.preset = {other} has no simulator in this build (known: functional, sgrt, \
-             sgrt-sptrv, sgrt-1)"
+            "arch.preset = {other} has no simulator in this build (known: functional, \
+             trax-baseline, sgrt, sgrt-sptrv, sgrt-1)"
         ),
     };
     let png = outputs.png().to_path_buf();

@@ -1,0 +1,83 @@
+//! The fast engine equals the cycle-by-cycle reference: cycles, every stat, the image and the
+//! per-pixel cycles, on small chips and several scenes and workloads.
+
+mod support;
+
+use rtsim_trace::WorkloadKind;
+use rtsim_trax::{Engine, Output, TraxConfig};
+use support::*;
+
+fn assert_engines_agree(fast: &Output, reference: &Output) {
+    let (f, r) = (&fast.report, &reference.report);
+    assert_eq!(f.cycles, r.cycles, "cycles");
+    assert_eq!(f.issue, r.issue, "issue stats");
+    assert_eq!(f.l1.stats, r.l1.stats, "L1 stats");
+    assert_eq!(f.l2.stats, r.l2.stats, "L2 stats");
+    assert_eq!(f.dram.report.stats, r.dram.report.stats, "DRAM stats");
+    assert_eq!(fast.heat, reference.heat, "cycles per pixel");
+    assert_eq!(fast.rays, reference.rays, "ray counters");
+    assert_same_image(&fast.pixels, &reference.pixels);
+    // Every TP-cycle is an issue, a stall or idle.
+    let t = &f.tp_cycles;
+    assert_eq!(t.issued + t.stalls + t.idle, t.total, "TP-cycle accounting");
+}
+
+fn check(scene: &str, size: (u32, u32), kind: WorkloadKind, spp: u32, cfg: &TraxConfig) {
+    let Some(w) = world(scene, size.0, size.1) else {
+        return;
+    };
+    let p = params(&w, kind, spp);
+    let pixels = all_pixels(&w);
+    let fast = simulate(&w, &p, cfg, Engine::Fast, &pixels);
+    let reference = simulate(&w, &p, cfg, Engine::Reference, &pixels);
+    assert_engines_agree(&fast, &reference);
+    let (image, rays) = functional(&w, &p, &pixels);
+    assert_same_image(&fast.pixels, &image);
+    assert_eq!(fast.rays, rays);
+}
+
+#[test]
+fn cornell_path_tracing_on_small_chips() {
+    check("cornell", (16, 12), WorkloadKind::Path, 1, &chip(1, 4));
+    check("cornell", (16, 12), WorkloadKind::Path, 1, &chip(2, 8));
+}
+
+#[test]
+fn contention_heavy_chip() {
+    // One unit of each class, one icache bank with one fetch port, a tiny L1: every kind of
+    // conflict happens.
+    let mut cfg = chip(2, 8);
+    for u in [
+        &mut cfg.units.fp_add,
+        &mut cfg.units.fp_mul,
+        &mut cfg.units.fp_minmax,
+        &mut cfg.units.fp_cmp,
+        &mut cfg.units.int_add,
+        &mut cfg.units.bitwise,
+        &mut cfg.units.branch,
+    ] {
+        u.count = 1;
+    }
+    cfg.units.branch.latency = 3;
+    cfg.icaches_per_tm = 1;
+    cfg.icache_banks = 1;
+    cfg.fetches_per_bank = 1;
+    cfg.l1.size_bytes = 1024;
+    cfg.l1.banks = 1;
+    cfg.l1.mshrs = 2;
+    cfg.l2.size_bytes = 64 << 10;
+    check("cornell", (12, 10), WorkloadKind::Path, 1, &cfg);
+}
+
+#[test]
+fn other_workloads() {
+    check("cornell", (10, 8), WorkloadKind::Ao, 4, &chip(1, 8));
+    check("cornell", (10, 8), WorkloadKind::Specular, 2, &chip(2, 4));
+    check("cornell", (10, 8), WorkloadKind::Diffuse, 2, &chip(1, 6));
+}
+
+#[test]
+fn shared_scenes() {
+    check("sibenik", (16, 12), WorkloadKind::Path, 1, &chip(2, 8));
+    check("conference", (12, 10), WorkloadKind::Path, 1, &chip(1, 8));
+}

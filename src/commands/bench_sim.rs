@@ -1,0 +1,131 @@
+//! `rtsim bench-sim`: how fast the TRaX chip model runs (issue 8 §7) — simulated core cycles,
+//! TP-cycles (cycles × TPs, the figure other simulators print) and instructions per host
+//! second, and the process's peak memory — for the full 4,096-TP chip on Sibenik by default.
+//!
+//! A paper frame (1024², path tracing, about 64 G instructions) takes far longer than a
+//! benchmark should, so the run stops after `--cycle-limit` core cycles (default 200,000,
+//! past the cold start of the caches) unless told otherwise; every `rtsim simulate` flag
+//! applies (a window, a lower resolution, fewer TMs with `--set arch.trax.tms=N`). Rates are
+//! given per wall-clock second and per CPU second of the process, since the machine may be
+//! shared; the load average is printed beside them.
+
+use crate::commands::simulate::{self, SimulateArgs};
+use crate::commands::thousands;
+use crate::session;
+use anyhow::Result;
+use clap::Args;
+
+/// Default cycle limit (assumed: long enough that the L1s and L2 are warm and the DRAM
+/// queues are in their steady state on Sibenik, short enough for a minute's run here).
+const DEFAULT_CYCLES: u64 = 200_000;
+
+/// The issue 8 §7 target: the paper's full Sibenik frame (about 64 G instructions, from
+/// STRaTA Table 3's instruction-cache energy at 0.014 nJ per fetch) in 15 minutes.
+const PAPER_FRAME_INSTRUCTIONS: f64 = 64e9;
+
+#[derive(Debug, Args, Clone)]
+pub struct BenchSimArgs {
+    #[command(flatten)]
+    pub sim: SimulateArgs,
+    /// Run the whole frame (no cycle limit unless --cycle-limit is given).
+    #[arg(long)]
+    pub full: bool,
+}
+
+pub fn run(mut args: BenchSimArgs) -> Result<()> {
+    let a = &mut args.sim;
+    if a.arch.as_deref().is_some_and(|p| p != "trax-baseline") {
+        anyhow::bail!("bench-sim measures the TRaX chip: --arch must be trax-baseline");
+    }
+    a.arch = Some("trax-baseline".into());
+    a.scene.scene.get_or_insert_with(|| "sibenik".into());
+    if !args.full {
+        a.frame.cycle_limit.get_or_insert(DEFAULT_CYCLES);
+    }
+    // The benchmark writes nothing (an `--out` is accepted and ignored).
+    let flags = simulate::flags(a)?;
+    let load_before = load_average();
+    let s = session::open(&a.scene, &flags, false)?;
+    let ran = simulate::trax::frame(&s)?;
+    let load_after = load_average();
+    let r = &ran.out.report;
+    let cfg = &s.resolved.config;
+    println!(
+        "scene            {} ({} triangles), {}x{} {:?}, {} of {} pixels simulated",
+        s.resolved.scene.name,
+        s.resolved.scene.triangles.len(),
+        ran.params.width,
+        ran.params.height,
+        ran.params.kind,
+        r.pixels_done,
+        ran.pixels.len()
+    );
+    println!(
+        "chip             {} TMs × {} TPs = {} TPs, {} engine{}",
+        r.chip.tms,
+        r.chip.tps_per_tm,
+        r.chip.tps,
+        r.chip.engine,
+        cfg.sim
+            .cycle_limit
+            .map(|c| format!(", cycle limit {}", thousands(c)))
+            .unwrap_or_default()
+    );
+    println!(
+        "simulated        {} cycles, {} instructions, {} rays",
+        thousands(r.cycles),
+        thousands(r.instructions.total),
+        thousands(ran.out.rays.total().rays)
+    );
+    let rates = |secs: f64| {
+        format!(
+            "{:>10.0} cycles/s {:>8.1} M TP-cycles/s {:>7.1} M instructions/s",
+            r.cycles as f64 / secs,
+            r.cycles as f64 * r.chip.tps as f64 / secs / 1e6,
+            r.instructions.total as f64 / secs / 1e6
+        )
+    };
+    println!(
+        "wall             {:>7.2} s {}",
+        ran.seconds,
+        rates(ran.seconds)
+    );
+    if let Some(cpu) = ran.cpu_seconds {
+        println!("CPU              {:>7.2} s {}", cpu, rates(cpu));
+    }
+    let ips = r.instructions.total as f64 / ran.cpu_seconds.unwrap_or(ran.seconds);
+    println!(
+        "paper frame      64 G instructions at this rate: {:.1} min (target 15 min)",
+        PAPER_FRAME_INSTRUCTIONS / ips / 60.0
+    );
+    println!(
+        "peak memory      {} (VmHWM of the process, scene and BVH included)",
+        peak_memory()
+            .map(|kb| format!("{:.0} MB", kb as f64 / 1024.0))
+            .unwrap_or_else(|| "unavailable".into())
+    );
+    println!(
+        "host load        {} before, {} after (1-, 5-, 15-minute load averages; {} CPUs)",
+        load_before.as_deref().unwrap_or("?"),
+        load_after.as_deref().unwrap_or("?"),
+        std::thread::available_parallelism().map_or(0, |n| n.get())
+    );
+    println!(
+        "BVH build        {:.2} s (not in the rates)",
+        s.build_seconds
+    );
+    Ok(())
+}
+
+/// The process's peak resident set in KiB (`VmHWM` in `/proc/self/status`; Linux only).
+fn peak_memory() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// The first three fields of `/proc/loadavg` (Linux only).
+fn load_average() -> Option<String> {
+    let s = std::fs::read_to_string("/proc/loadavg").ok()?;
+    Some(s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+}

@@ -1,0 +1,134 @@
+//! `arch.preset = "trax-baseline"`: the TRaX chip (`rtsim-trax`), cycle by cycle.
+
+use super::{RunFacts, SimOutput, Timing};
+use crate::session::Session;
+use anyhow::Result;
+use rtsim_run::SimMode;
+use rtsim_trace::Integrator;
+use rtsim_trax::{Engine, Frame, Options, TraxReport};
+use serde::Serialize;
+use std::time::Instant;
+
+#[derive(Debug, Serialize)]
+struct TraxStats {
+    #[serde(flatten)]
+    run: RunFacts,
+    trax: TraxReport,
+}
+
+/// Compact counts for the progress message.
+fn si(n: u64) -> String {
+    match n {
+        0..1_000 => n.to_string(),
+        1_000..1_000_000 => format!("{:.1}K", n as f64 / 1e3),
+        1_000_000..1_000_000_000 => format!("{:.1}M", n as f64 / 1e6),
+        _ => format!("{:.2}G", n as f64 / 1e9),
+    }
+}
+
+/// A frame run on the chip, with its host cost.
+pub(crate) struct Ran {
+    pub out: rtsim_trax::Output,
+    pub params: rtsim_trace::WorkloadParams,
+    /// The pixels simulated (the window's).
+    pub pixels: Vec<u32>,
+    /// Wall-clock and process CPU seconds of the simulation alone (not the BVH build).
+    pub seconds: f64,
+    pub cpu_seconds: Option<f64>,
+}
+
+/// Run the session's frame on the TRaX chip, with a progress bar on terminals.
+pub(crate) fn frame(s: &Session) -> Result<Ran> {
+    let cfg = &s.resolved.config;
+    let params = rtsim_run::workload_params(&s.resolved);
+    let integ = Integrator::new(&s.resolved.scene, &s.tracer, params.clone());
+    let (w, h) = (params.width, params.height);
+    let pixels = cfg.sim.pixels(w, h);
+    let engine = match cfg.sim.mode {
+        SimMode::Fast => Engine::Fast,
+        SimMode::Reference => Engine::Reference,
+    };
+    let bar = crate::progress::bar(pixels.len() as u64, "pixels");
+    let cpu_start = crate::cputime::process_seconds();
+    let start = Instant::now();
+    let out = rtsim_trax::simulate(
+        &cfg.arch.trax,
+        &cfg.dram,
+        Frame {
+            integ: &integ,
+            tracer: &s.tracer,
+            image: &s.image,
+            pixels: &pixels,
+            image_pixels: (w * h) as usize,
+        },
+        &Options {
+            engine,
+            cycle_limit: cfg.sim.cycle_limit,
+            seed: cfg.seed,
+        },
+        &mut |p| {
+            bar.set_position(p.pixels_done);
+            bar.set_message(format!("{} cycles, {} rays", si(p.cycle), si(p.rays)));
+        },
+    )?;
+    let seconds = start.elapsed().as_secs_f64();
+    let cpu_seconds = crate::cputime::process_seconds()
+        .zip(cpu_start)
+        .map(|(b, a)| b - a);
+    bar.finish_and_clear();
+    Ok(Ran {
+        out,
+        params,
+        pixels,
+        seconds,
+        cpu_seconds,
+    })
+}
+
+pub fn run(s: &Session) -> Result<SimOutput> {
+    let cfg = &s.resolved.config;
+    let Ran {
+        out,
+        params,
+        pixels,
+        seconds,
+        ..
+    } = frame(s)?;
+    let (w, h) = (params.width, params.height);
+    let r = &out.report;
+    let mut summary = vec![format!(
+        "arch             {} ({} pixels of {}x{}, {} rays, traversal {})",
+        cfg.arch.preset,
+        pixels.len(),
+        w,
+        h,
+        out.rays.total().rays,
+        s.tracer.traversal().name()
+    )];
+    summary.extend(r.summary());
+    let tp_cycles = r.cycles as f64 * r.chip.tps as f64;
+    let cycles_per_second = r.cycles as f64 / seconds;
+    summary.push(format!(
+        "host             {seconds:.2} s: {:.0} cycles/s, {:.1} M TP-cycles/s, {:.1} M instructions/s",
+        cycles_per_second,
+        tp_cycles / seconds / 1e6,
+        r.instructions.total as f64 / seconds / 1e6
+    ));
+    Ok(SimOutput {
+        heat: out.heat.clone(),
+        heat_label: "core cycles",
+        stats: Box::new(TraxStats {
+            run: RunFacts::of(s, &params, pixels.len(), &out.rays),
+            trax: out.report,
+        }),
+        pixels: out.pixels,
+        timing: Timing {
+            threads: 1,
+            bvh_build_seconds: s.build_seconds,
+            simulate_seconds: seconds,
+            cycles_per_second,
+        },
+        summary,
+        files: Vec::new(),
+    })
+}

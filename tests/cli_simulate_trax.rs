@@ -1,0 +1,159 @@
+//! `rtsim simulate --arch trax-baseline` and `rtsim bench-sim` end to end: every output, the
+//! image byte-identical to `rtsim render`'s, determinism, and configuration errors.
+
+mod common;
+use common::{fails, ok, rtsim};
+use std::fs;
+use std::path::Path;
+
+/// A small chip on a small Cornell frame: 2 TMs × 8 TPs, 24×16 pixels.
+fn simulate(out: &Path, extra: &[&str]) -> String {
+    ok(rtsim()
+        .args([
+            "simulate",
+            "--arch",
+            "trax-baseline",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--set",
+            "arch.trax.tms=2",
+            "--set",
+            "arch.trax.tps_per_tm=8",
+            "--out",
+        ])
+        .arg(out)
+        .args(extra))
+}
+
+#[test]
+fn simulate_writes_every_output_and_the_render_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let (sim, render) = (dir.path().join("sim"), dir.path().join("render"));
+    let stdout = simulate(&sim, &[]);
+    for want in [
+        "ms/frame",
+        "instructions",
+        "stalls",
+        "L1 ",
+        "L2 ",
+        "DRAM",
+        "row-buffer hit rate",
+        "energy",
+        "calibration",
+    ] {
+        assert!(stdout.contains(want), "summary lacks {want}: {stdout}");
+    }
+    for f in [
+        "render.png",
+        "heatmap.png",
+        "stats.json",
+        "timing.json",
+        "config.resolved.toml",
+    ] {
+        assert!(sim.join(f).is_file(), "missing {f}");
+    }
+    ok(rtsim()
+        .args(["render", "--width", "24", "--height", "16", "--out"])
+        .arg(&render));
+    assert_eq!(
+        fs::read(sim.join("render.png")).unwrap(),
+        fs::read(render.join("render.png")).unwrap(),
+        "the chip's image differs from rtsim render's"
+    );
+    let stats: serde_json::Value =
+        serde_json::from_slice(&fs::read(sim.join("stats.json")).unwrap()).unwrap();
+    let t = &stats["trax"];
+    assert_eq!(t["complete"], true);
+    assert_eq!(t["chip"]["tps"], 16);
+    assert!(t["cycles"].as_u64().unwrap() > 0);
+    assert!(t["energy"]["dram_j"].as_f64().unwrap() > 0.0);
+    assert_eq!(t["pixels_done"], 24 * 16);
+}
+
+#[test]
+fn simulate_is_deterministic_and_its_resolved_config_repeats_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    simulate(&a, &[]);
+    ok(rtsim()
+        .args(["simulate", "--config"])
+        .arg(a.join("config.resolved.toml"))
+        .arg("--out")
+        .arg(&b));
+    for f in ["stats.json", "render.png", "heatmap.png"] {
+        assert_eq!(
+            fs::read(a.join(f)).unwrap(),
+            fs::read(b.join(f)).unwrap(),
+            "{f} differs between identical runs"
+        );
+    }
+}
+
+#[test]
+fn a_cycle_limit_stops_the_frame_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let stdout = simulate(dir.path(), &["--cycle-limit", "2000"]);
+    assert!(stdout.contains("INCOMPLETE"), "{stdout}");
+    let stats: serde_json::Value =
+        serde_json::from_slice(&fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["trax"]["complete"], false);
+}
+
+#[test]
+fn bad_chip_values_name_their_keys() {
+    for (set, key) in [
+        ("arch.trax.tms=0", "arch.trax.tms"),
+        (
+            "arch.trax.units.fp_add.count=0",
+            "arch.trax.units.fp_add.count",
+        ),
+        (
+            "arch.trax.l1.size_bytes=2199023255552",
+            "arch.trax.l1.size_bytes",
+        ),
+        ("arch.trax.bogus=1", "bogus"),
+    ] {
+        let e = fails(rtsim().args([
+            "simulate",
+            "--arch",
+            "trax-baseline",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--set",
+            set,
+        ]));
+        assert!(e.contains(key), "{set}: {e}");
+    }
+}
+
+#[test]
+fn bench_sim_reports_rates_and_peak_memory() {
+    let stdout = ok(rtsim().args([
+        "bench-sim",
+        "--scene",
+        "cornell",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--set",
+        "arch.trax.tms=2",
+        "--cycle-limit",
+        "3000",
+    ]));
+    for want in [
+        "cycles/s",
+        "M TP-cycles/s",
+        "M instructions/s",
+        "peak memory",
+        "host load",
+    ] {
+        assert!(stdout.contains(want), "lacks {want}: {stdout}");
+    }
+    let e = fails(rtsim().args(["bench-sim", "--arch", "functional"]));
+    assert!(e.contains("trax-baseline"), "{e}");
+}
