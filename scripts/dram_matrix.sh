@@ -2,8 +2,10 @@
 # The DRAM regression matrix: 192 synthetic cases (6 presets x stream/random x read ratio 1/0.7
 # x fr-fcfs/fcfs x open/closed page x row-hit protection on/off) plus 12 extra cases that reach
 # the other paths (USIMM and DRAMsim3 traces with read limits, power-down, row-hit cap, paced
-# traffic, strided). Every case's dram_stats.json is written with the wall-time fields removed,
-# so that two builds that simulate identically produce byte-identical files.
+# traffic, strided). Every case's dram_stats.json is written without the wall-time fields and
+# without the echo of the resolved configuration (the input, which gains keys as the model
+# does), so that two builds that simulate identically produce byte-identical files: `run` and
+# the whole `report`, every raw counter and histogram included.
 #
 #   scripts/dram_matrix.sh record DIR [--set k=v ...]    run the matrix into DIR
 #   scripts/dram_matrix.sh compare REF NEW [--set ...]   run into NEW and diff against REF
@@ -36,8 +38,8 @@ run_case() {
     shift
     # Traces are named relative to $work, so that `run.source` is the same in every run.
     (cd "$work" && "$RTSIM" dram "$@" "${extra[@]}" --out "$work/$name" >/dev/null)
-    # Strip the wall-clock fields (the only nondeterministic output).
-    jq -S 'del(.run.wall_seconds, .run.requests_per_second)' \
+    # Strip the wall-clock fields (the only nondeterministic output) and the config echo.
+    jq -S 'del(.run.wall_seconds, .run.requests_per_second, .config)' \
         "$work/$name/dram_stats.json" >"$out/$name.json"
 }
 

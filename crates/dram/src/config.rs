@@ -278,6 +278,11 @@ pub struct RefreshConfig {
     /// Spread the ranks' refreshes evenly over tREFI instead of refreshing all ranks at once.
     /// Default true.
     pub stagger_ranks: bool,
+    /// REFs issued back to back per due time; due times are `batch × tREFI` apart, so the
+    /// refresh rate is unchanged. 1 = one REF every tREFI (DRAMsim3); 8 = USIMM's eight every
+    /// 8 × tREFI (JESD79-3F §4.9.1 and JESD79-4B §4.24 allow up to eight REFs to be postponed
+    /// and issued together). A batch blocks the rank for `batch × tRFC`. 1..=8. Default 1.
+    pub batch: u32,
 }
 
 /// Settings of standalone trace runs (`rtsim dram`); ignored by chip models.
@@ -404,6 +409,7 @@ impl Default for RefreshConfig {
         RefreshConfig {
             enabled: true,
             stagger_ranks: true,
+            batch: 1,
         }
     }
 }
@@ -480,6 +486,7 @@ impl Validate for DramConfig {
         self.timing.validate_with(&self.organisation)?;
         self.current.validate()?;
         self.controller.validate()?;
+        check_range("refresh.batch", self.refresh.batch, 1, 8)?;
         check_range(
             "trace.usimm_max_outstanding_reads",
             self.trace.usimm_max_outstanding_reads,

@@ -44,6 +44,7 @@ struct Window {
 pub struct Engine {
     ranks: usize,
     banks_per_rank: usize,
+    groups_per_rank: usize,
     /// Rules grouped by the issued command (RDA also gets RD's rules, WRA WR's), window rules
     /// excluded.
     by_prev: Vec<Vec<Applied>>,
@@ -62,6 +63,8 @@ pub struct Engine {
     act_time: Vec<u64>,
     open_in_rank: Vec<u32>,
     powered_down: Vec<bool>,
+    /// Ranks powered down.
+    powered_down_count: usize,
     last_issue: Option<u64>,
 }
 
@@ -117,6 +120,7 @@ impl Engine {
             shared_raise,
             ranks,
             banks_per_rank,
+            groups_per_rank: o.bank_groups as usize,
             by_prev,
             windows,
             bank_next: vec![[0; BK]; ranks * banks_per_rank],
@@ -136,6 +140,7 @@ impl Engine {
             act_time: vec![0; ranks * banks_per_rank],
             open_in_rank: vec![0; ranks],
             powered_down: vec![false; ranks],
+            powered_down_count: 0,
             last_issue: None,
         }
     }
@@ -168,6 +173,36 @@ impl Engine {
             .max(self.chan_next[k])
             .max(self.bank_next[b][k])
             .max(self.group_next[self.group_of[b] as usize][k])
+    }
+
+    /// The bank's own part of [`Engine::earliest_bank`]: rules of bank scope only. It changes
+    /// only when a command is issued to bank `b`.
+    #[inline(always)]
+    pub fn bank_ready(&self, k: usize, b: usize) -> u64 {
+        self.bank_next[b][k]
+    }
+
+    /// The shared part of [`Engine::earliest_bank`] for the banks of flat bank group `g`: rules
+    /// of bank-group, rank and channel scope (with other-rank rules and activation windows,
+    /// which raise the rank's entries). `earliest_bank(k, b) = max(bank_ready(k, b),
+    /// group_ready(k, group_index(b)))`; issuing a command changes it only for the kinds in
+    /// [`Engine::shared_raise`].
+    #[inline(always)]
+    pub fn group_ready(&self, k: usize, g: usize) -> u64 {
+        self.group_next[g][k]
+            .max(self.rank_next[g / self.groups_per_rank][k])
+            .max(self.chan_next[k])
+    }
+
+    /// Flat bank-group index (rank × groups per rank + group) of flat bank `b`.
+    #[inline(always)]
+    pub fn group_index(&self, b: usize) -> usize {
+        self.group_of[b] as usize
+    }
+
+    /// Bank groups in the channel (all ranks).
+    pub fn groups(&self) -> usize {
+        self.group_next.len()
     }
 
     /// Does the bank/rank state allow `cmd` (to `row`, for ACT and column commands)?
@@ -240,8 +275,14 @@ impl Engine {
                 self.open_row[b] = CLOSED;
                 self.open_in_rank[rank] -= 1;
             }
-            Cmd::Pde => self.powered_down[rank] = true,
-            Cmd::Pdx => self.powered_down[rank] = false,
+            Cmd::Pde => {
+                self.powered_down[rank] = true;
+                self.powered_down_count += 1;
+            }
+            Cmd::Pdx => {
+                self.powered_down[rank] = false;
+                self.powered_down_count -= 1;
+            }
             Cmd::Rd | Cmd::Wr | Cmd::Ref => {}
         }
     }
@@ -269,6 +310,12 @@ impl Engine {
     #[inline]
     pub fn open_banks(&self, rank: usize) -> u32 {
         self.open_in_rank[rank]
+    }
+
+    /// Is any rank powered down?
+    #[inline]
+    pub fn any_powered_down(&self) -> bool {
+        self.powered_down_count > 0
     }
 
     #[inline]

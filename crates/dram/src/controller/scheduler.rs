@@ -127,8 +127,23 @@ pub fn bank_candidate(
             }
         }
         SchedulerKind::FrFcfs => {
-            let hit = list.iter().copied().find(|&s| q.row(s) == open_row);
-            let miss = list.iter().copied().find(|&s| q.row(s) != open_row);
+            // The oldest hit and the oldest miss, in one pass.
+            let (mut hit, mut miss) = (None, None);
+            for &s in list {
+                if q.row(s) == open_row {
+                    if hit.is_none() {
+                        hit = Some(s);
+                        if miss.is_some() {
+                            break;
+                        }
+                    }
+                } else if miss.is_none() {
+                    miss = Some(s);
+                    if hit.is_some() {
+                        break;
+                    }
+                }
+            }
             match (hit, miss) {
                 (Some(_), Some(m)) if m == first && row_hit_cap > 0 && st.streak >= row_hit_cap => {
                     // Starvation cap: the bank's oldest request wants another row; it gets its
