@@ -20,12 +20,16 @@ const K: usize = Cmd::KINDS;
 /// per-group tables are this narrow (32 bytes per bank: cache-friendly scans).
 const BK: usize = 4;
 
-/// A rule as the engine applies it: 8 bytes, so that a command's rules share a cache line.
-#[derive(Clone, Copy, Debug)]
-struct Applied {
-    scope: Scope,
-    kind: u8,
-    cycles: u32,
+/// The delays one issued command imposes, by scope and next-command kind (0 = none): the
+/// table's rules for that command folded together (the largest delay per scope and kind), so
+/// that issuing is a fixed pass over a few short arrays.
+#[derive(Clone, Copy, Debug, Default)]
+struct Delays {
+    bank: [u32; BK],
+    group: [u32; BK],
+    rank: [u32; K],
+    other_ranks: [u32; K],
+    channel: [u32; K],
 }
 
 /// An activation window: at most `window` ACTs in any `cycles` cycles of one rank.
@@ -45,9 +49,8 @@ pub struct Engine {
     ranks: usize,
     banks_per_rank: usize,
     groups_per_rank: usize,
-    /// Rules grouped by the issued command (RDA also gets RD's rules, WRA WR's), window rules
-    /// excluded.
-    by_prev: Vec<Vec<Applied>>,
+    /// Delays by issued command (RDA also gets RD's rules, WRA WR's), window rules excluded.
+    by_prev: Vec<Delays>,
     windows: Vec<Window>,
     bank_next: Vec<[u64; BK]>,
     group_next: Vec<[u64; BK]>,
@@ -73,8 +76,9 @@ impl Engine {
         let o = &spec.org;
         let ranks = o.ranks as usize;
         let banks_per_rank = o.banks_per_rank as usize;
-        let mut by_prev = vec![Vec::new(); Cmd::ALL.len()];
+        let mut by_prev = vec![Delays::default(); Cmd::ALL.len()];
         let mut windows = Vec::new();
+        let mut shared_raise = vec![0u8; Cmd::ALL.len()];
         for c in &spec.constraints {
             if c.cycles == 0 {
                 continue; // can never bind
@@ -94,22 +98,25 @@ impl Engine {
                 });
                 continue;
             }
+            let mut shared_raise_bits = 0u8;
+            let k = c.next.kind();
+            if c.scope != Scope::Bank {
+                shared_raise_bits |= 1 << k;
+            }
+            // Timing values are validated to at most 10^7 cycles, sums far below 2^32.
+            let cycles = u32::try_from(c.cycles).unwrap_or(u32::MAX);
             for issued in Cmd::ALL {
                 if c.prev.covers(issued) {
-                    by_prev[issued as usize].push(Applied {
-                        scope: c.scope,
-                        kind: c.next.kind() as u8,
-                        // Timing values are validated to at most 10^7 cycles, sums far below 2^32.
-                        cycles: u32::try_from(c.cycles).unwrap_or(u32::MAX),
-                    });
-                }
-            }
-        }
-        let mut shared_raise = vec![0u8; Cmd::ALL.len()];
-        for issued in Cmd::ALL {
-            for c in &by_prev[issued as usize] {
-                if c.scope != Scope::Bank {
-                    shared_raise[issued as usize] |= 1 << c.kind;
+                    let d = &mut by_prev[issued as usize];
+                    let slot = match c.scope {
+                        Scope::Bank => &mut d.bank[k],
+                        Scope::BankGroup => &mut d.group[k],
+                        Scope::Rank => &mut d.rank[k],
+                        Scope::OtherRanks => &mut d.other_ranks[k],
+                        Scope::Channel => &mut d.channel[k],
+                    };
+                    *slot = (*slot).max(cycles);
+                    shared_raise[issued as usize] |= shared_raise_bits;
                 }
             }
         }
@@ -237,20 +244,14 @@ impl Engine {
         self.last_issue = Some(t);
         let rank = self.rank_of[b] as usize;
         let group = self.group_of[b] as usize;
-        let rules = &self.by_prev[cmd as usize];
-        for c in rules {
-            let at = t + u64::from(c.cycles);
-            let k = usize::from(c.kind);
-            match c.scope {
-                Scope::Bank => raise(&mut self.bank_next[b][k], at),
-                Scope::BankGroup => raise(&mut self.group_next[group][k], at),
-                Scope::Rank => raise(&mut self.rank_next[rank][k], at),
-                Scope::Channel => raise(&mut self.chan_next[k], at),
-                Scope::OtherRanks => {
-                    for r in (0..self.ranks).filter(|&r| r != rank) {
-                        raise(&mut self.rank_next[r][k], at);
-                    }
-                }
+        let d = &self.by_prev[cmd as usize];
+        raise_all(&mut self.bank_next[b], &d.bank, t);
+        raise_all(&mut self.group_next[group], &d.group, t);
+        raise_all(&mut self.rank_next[rank], &d.rank, t);
+        raise_all(&mut self.chan_next, &d.channel, t);
+        if self.ranks > 1 {
+            for r in (0..self.ranks).filter(|&r| r != rank) {
+                raise_all(&mut self.rank_next[r], &d.other_ranks, t);
             }
         }
         match cmd {
@@ -334,6 +335,16 @@ impl Engine {
 
     pub fn ranks(&self) -> usize {
         self.ranks
+    }
+}
+
+/// Raise each `next[k]` to `t + delay[k]` where the delay is not 0 (no rule).
+#[inline(always)]
+fn raise_all<const N: usize>(next: &mut [u64; N], delay: &[u32; N], t: u64) {
+    for (n, &d) in next.iter_mut().zip(delay) {
+        if d != 0 {
+            raise(n, t + u64::from(d));
+        }
     }
 }
 
