@@ -17,7 +17,7 @@ pub mod row_policy;
 pub mod scheduler;
 
 use crate::checker::Checker;
-use crate::config::{ControllerConfig, PowerDownKind, SchedulerKind};
+use crate::config::{ControllerConfig, PowerDownKind, SchedulerKind, WriteDrainKind};
 use crate::engine::{CLOSED, Engine};
 use crate::spec::DramSpec;
 use crate::spec::Ratio;
@@ -48,8 +48,12 @@ pub struct Channel {
     ctl: ControllerConfig,
     /// Each bank's offer, recomputed lazily for `dirty` banks.
     offers: Offers,
-    /// Alternative offers (PRE behind a row hit; only without row-hit protection).
+    /// Alternative offers: the command a bank offers when its offer cannot issue (USIMM's
+    /// FCFS; PRE behind a row hit without row-hit protection). Used only when `use_alts`.
     alts: Offers,
+    use_alts: bool,
+    /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
+    merged_list: Vec<u32>,
     /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 8 + k`, kept
     /// current after each command for the kinds it raises. An offer's earliest cycle is the
     /// larger of its bank's own ready time and its entry here, so a command touches only the
@@ -94,14 +98,21 @@ impl Channel {
             merge_reads: ctl.merge_reads,
             merge_writes: ctl.merge_writes,
             forward_reads: ctl.forward_reads,
+            admission_delay: ctl.admission_delay.into(),
+            command_queue_depth: ctl.command_queue_depth,
         };
         let mut ch = Channel {
             index,
             engine: Engine::new(spec),
             q: RequestQueues::new(policy, banks, o.ranks as usize),
-            ctl,
             offers: Offers::new(banks),
             alts: Offers::new(banks),
+            use_alts: !ctl.protect_row_hits || ctl.scheduler == SchedulerKind::UsimmFcfs,
+            merged_list: Vec::with_capacity(
+                (ctl.read_queue + ctl.write_queue) as usize
+                    + banks * ctl.command_queue_depth as usize,
+            ),
+            ctl,
             shared: Box::new([0; CALENDAR_LEN]),
             dirty: vec![true; banks],
             dirty_list: (0..banks as u32).collect(),
@@ -156,7 +167,9 @@ impl Channel {
             }
         }
         self.q.push_pending(e);
-        self.next_event = self.next_event.min(e.arrival_mem);
+        self.next_event = self
+            .next_event
+            .min(e.arrival_mem + u64::from(self.ctl.admission_delay));
     }
 
     /// Count a refused request.
@@ -202,7 +215,7 @@ impl Channel {
     fn skip_idle_refreshes(&mut self, limit: u64) -> bool {
         if !self.refresh.enabled
             || self.ctl.power_down != PowerDownKind::Off
-            || self.q.occupied() > self.q.pending_len()
+            || self.q.reads_arrived + self.q.writes_arrived > 0
         {
             return false;
         }
@@ -241,6 +254,12 @@ impl Channel {
             self.mark_all_dirty();
         }
         self.update_mode(t);
+        if self.ctl.command_queue_depth > 0 {
+            // One request per cycle into its bank's command queue: writes while draining.
+            if let Some(b) = self.q.transfer(self.served_op()) {
+                self.mark_dirty(b);
+            }
+        }
         let (choice, offers_min) = self.choose(t);
         self.done_below = t + 1;
         if let Some(c) = choice {
@@ -269,6 +288,7 @@ impl Channel {
         self.last_busy[e.rank as usize] = t;
         match self.q.admit(slot) {
             Admit::Queued => self.mark_dirty(e.bank as usize),
+            Admit::Staged => {}
             Admit::Merged(_) => match e.op {
                 MemOp::Read => self.stats.reads_merged += 1,
                 MemOp::Write => self.stats.writes_merged += 1,
@@ -330,45 +350,105 @@ impl Channel {
         self.refresh.pending[rank] || self.engine.is_powered_down(rank)
     }
 
+    /// The kind of request being served: writes in write-drain mode, else reads.
+    #[inline]
+    fn served_op(&self) -> MemOp {
+        if self.write_mode {
+            MemOp::Write
+        } else {
+            MemOp::Read
+        }
+    }
+
     /// Recompute the offers of banks whose inputs changed.
     fn settle_candidates(&mut self) {
         while let Some(b) = self.dirty_list.pop() {
             let b = b as usize;
             self.dirty[b] = false;
             let rank = b / self.banks_per_rank;
-            let offer = if self.rank_blocked(rank) {
-                None
+            let (offer, alt) = if self.rank_blocked(rank) {
+                (None, None)
             } else {
-                let op = if self.write_mode {
-                    MemOp::Write
-                } else {
-                    MemOp::Read
-                };
-                scheduler::bank_candidate(
-                    self.ctl.scheduler,
-                    self.ctl.row_hit_cap,
-                    &self.sched[b],
-                    &self.q,
-                    b,
-                    op,
-                    self.engine.open_row(b),
-                )
-            };
-            let alt = match offer {
-                Some(c) if c.hit && !self.ctl.protect_row_hits => {
-                    let op = if self.write_mode {
-                        MemOp::Write
-                    } else {
-                        MemOp::Read
-                    };
-                    scheduler::bank_alternative(&self.q, b, op, self.engine.open_row(b))
-                }
-                _ => None,
+                self.bank_offers(b)
             };
             let kind = self.ctl.scheduler;
             self.offers.set(b, offer, kind, &self.engine);
-            if !self.ctl.protect_row_hits {
+            if self.use_alts {
                 self.alts.set(b, alt, kind, &self.engine);
+            }
+        }
+    }
+
+    /// Bank `b`'s offer and alternative for the requests being served.
+    fn bank_offers(&mut self, b: usize) -> (Option<Candidate>, Option<Candidate>) {
+        let open_row = self.engine.open_row(b);
+        let c = &self.ctl;
+        let offers = |q: &RequestQueues, list: &[u32], st: &BankSched| {
+            scheduler::bank_offers(
+                c.scheduler,
+                c.row_hit_cap,
+                c.protect_row_hits,
+                st,
+                q,
+                list,
+                open_row,
+            )
+        };
+        let (served, other) = if self.write_mode {
+            (&self.q.writes[b], &self.q.reads[b])
+        } else {
+            (&self.q.reads[b], &self.q.writes[b])
+        };
+        if c.write_drain == WriteDrainKind::ProtectRows {
+            let (offer, alt) = offers(&self.q, served, &self.sched[b]);
+            if open_row == CLOSED {
+                return (offer, alt);
+            }
+            // A PRE would close a row that queued requests of the other kind want: serve the
+            // oldest of those first instead (its own kind's column command).
+            let Some(h) = other.iter().copied().find(|&s| self.q.row(s) == open_row) else {
+                return (offer, alt);
+            };
+            let cmd = if self.write_mode { Cmd::Rd } else { Cmd::Wr };
+            let protect = |c: Option<Candidate>| match c {
+                Some(c) if c.cmd == Cmd::Pre => {
+                    Some(Candidate::for_request(&self.q, cmd, h, true))
+                }
+                other => other,
+            };
+            let offer = protect(offer);
+            let alt = protect(alt);
+            // Both may now be the same request; keep one.
+            let alt = if alt.map(|a| a.slot) == offer.map(|o| o.slot) {
+                None
+            } else {
+                alt
+            };
+            return (offer, alt);
+        }
+        if !self.write_mode {
+            return offers(&self.q, &self.q.reads[b], &self.sched[b]);
+        }
+        match c.write_drain {
+            WriteDrainKind::ProtectRows => unreachable!("handled above"),
+            WriteDrainKind::WritesOnly => offers(&self.q, &self.q.writes[b], &self.sched[b]),
+            WriteDrainKind::Mixed => {
+                // Reads and writes of the bank together, oldest first.
+                let (r, w) = (&self.q.reads[b], &self.q.writes[b]);
+                self.merged_list.clear();
+                let (mut i, mut j) = (0, 0);
+                while i < r.len() || j < w.len() {
+                    let take_read = j == w.len()
+                        || (i < r.len() && self.q.get(r[i]).seq < self.q.get(w[j]).seq);
+                    if take_read {
+                        self.merged_list.push(r[i]);
+                        i += 1;
+                    } else {
+                        self.merged_list.push(w[j]);
+                        j += 1;
+                    }
+                }
+                offers(&self.q, &self.merged_list, &self.sched[b])
             }
         }
     }
@@ -402,7 +482,7 @@ impl Channel {
         }
         // Requests.
         self.settle_candidates();
-        let alts = (!self.ctl.protect_row_hits).then_some(&self.alts);
+        let alts = self.use_alts.then_some(&self.alts);
         let pick = self.offers.scan(alts, &self.shared, t);
         *offers_min = pick.min_ready;
         if let Some((b, alt)) = pick.best {
@@ -653,7 +733,7 @@ impl Channel {
     /// [`Channel::compute_next_event`] with every offer settled.
     fn exact_next_event(&self, from: u64) -> u64 {
         debug_assert!(self.dirty_list.is_empty());
-        let alts = (!self.ctl.protect_row_hits).then_some(&self.alts);
+        let alts = self.use_alts.then_some(&self.alts);
         let min = self.offers.scan(alts, &self.shared, 0).min_ready;
         self.next_event_from(from, min)
     }
@@ -699,6 +779,9 @@ impl Channel {
             }
         }
         e = e.min(offers_min);
+        if self.ctl.command_queue_depth > 0 && self.q.can_transfer(self.served_op()) {
+            e = e.min(from);
+        }
         if e == u64::MAX { e } else { e.max(from) }
     }
 
