@@ -92,26 +92,16 @@ fn column_cmd(q: &RequestQueues, slot: u32) -> Cmd {
     }
 }
 
-/// The oldest request of `list` hitting `open_row` and the oldest missing it, in one pass.
+/// The oldest request of `list` hitting `open_row`.
 #[inline]
-fn oldest_hit_and_miss(q: &RequestQueues, list: &[u32], open_row: u32) -> (Option<u32>, Option<u32>) {
-    let (mut hit, mut miss) = (None, None);
-    for &s in list {
-        if q.row(s) == open_row {
-            if hit.is_none() {
-                hit = Some(s);
-                if miss.is_some() {
-                    break;
-                }
-            }
-        } else if miss.is_none() {
-            miss = Some(s);
-            if hit.is_some() {
-                break;
-            }
-        }
-    }
-    (hit, miss)
+fn oldest_hit(q: &RequestQueues, list: &[u32], open_row: u32) -> Option<u32> {
+    list.iter().copied().find(|&s| q.row(s) == open_row)
+}
+
+/// The oldest request of `list` missing `open_row`.
+#[inline]
+fn oldest_miss(q: &RequestQueues, list: &[u32], open_row: u32) -> Option<u32> {
+    list.iter().copied().find(|&s| q.row(s) != open_row)
 }
 
 /// The offer of bank `b` for the requests in `list` (oldest first; reads, writes or both),
@@ -142,45 +132,66 @@ pub fn bank_offers(
         };
         return (offer(Cmd::Act, target, false), None);
     }
-    let (hit, miss) = oldest_hit_and_miss(q, list, open_row);
+    // The oldest hit and the oldest miss, each found only when needed: one of the two is the
+    // first request, so a long list of hits (a stream) costs one look.
+    let first_hits = q.row(first) == open_row;
+    let hit = || {
+        if first_hits {
+            Some(first)
+        } else {
+            oldest_hit(q, list, open_row)
+        }
+    };
+    let miss = || {
+        if first_hits {
+            oldest_miss(q, list, open_row)
+        } else {
+            Some(first)
+        }
+    };
     let pre_for_miss = |m| offer(Cmd::Pre, m, false);
     let primary = match kind {
         SchedulerKind::Fcfs => {
-            if hit == Some(first) {
+            if first_hits {
                 offer(column_cmd(q, first), first, true)
             } else {
                 pre_for_miss(first)
             }
         }
-        SchedulerKind::FrFcfs => match (hit, miss) {
-            (Some(_), Some(m)) if m == first && row_hit_cap > 0 && st.streak >= row_hit_cap => {
-                // Starvation cap: the bank's oldest request wants another row; it gets its
-                // turn (DRAMsim3's rule, with its 4 column commands = the opening access plus
-                // a cap of 3 hits).
-                pre_for_miss(m)
+        SchedulerKind::FrFcfs => {
+            if first_hits {
+                offer(column_cmd(q, first), first, true)
+            } else {
+                match hit() {
+                    // Starvation cap: the bank's oldest request (the first, a miss) wants
+                    // another row; it gets its turn (DRAMsim3's rule, with its 4 column commands
+                    // = the opening access plus a cap of 3 hits).
+                    Some(_) if row_hit_cap > 0 && st.streak >= row_hit_cap => pre_for_miss(first),
+                    Some(h) => offer(column_cmd(q, h), h, true),
+                    None => pre_for_miss(first),
+                }
             }
-            (Some(h), _) => offer(column_cmd(q, h), h, true),
-            (None, Some(m)) => pre_for_miss(m),
-            (None, None) => None,
-        },
+        }
         SchedulerKind::UsimmFcfs => {
             // The older of the oldest hit and the oldest miss first; the other one is the
             // alternative, so the first issuable command in arrival order wins.
-            return match (hit, miss) {
-                (Some(h), Some(m)) if h == first => {
-                    (offer(column_cmd(q, h), h, true), pre_for_miss(m))
-                }
-                (Some(h), Some(m)) => (pre_for_miss(m), offer(column_cmd(q, h), h, true)),
-                (Some(h), None) => (offer(column_cmd(q, h), h, true), None),
-                (None, Some(m)) => (pre_for_miss(m), None),
-                (None, None) => (None, None),
+            return if first_hits {
+                (
+                    offer(column_cmd(q, first), first, true),
+                    miss().and_then(pre_for_miss),
+                )
+            } else {
+                (
+                    pre_for_miss(first),
+                    hit().and_then(|h| offer(column_cmd(q, h), h, true)),
+                )
             };
         }
     };
     // Without row-hit protection, a bank offering a hit may instead close the row for its
     // oldest miss when the hit cannot issue (USIMM 1.3's FR-FCFS second pass).
-    let alt = match (primary, miss) {
-        (Some(c), Some(m)) if c.hit && !protect_row_hits => pre_for_miss(m),
+    let alt = match primary {
+        Some(c) if c.hit && !protect_row_hits => miss().and_then(pre_for_miss),
         _ => None,
     };
     (primary, alt)
