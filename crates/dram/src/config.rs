@@ -1071,8 +1071,14 @@ mod tests {
             ("organisation.line_bytes=16", "organisation.line_bytes"),
             ("mapping=rank:bank:channel:column:offset", "mapping"),
             ("timing.tRCD=9999999", "between two refreshes"),
-            ("controller.command_queue_depth=65", "controller.command_queue_depth"),
-            ("controller.admission_delay=1001", "controller.admission_delay"),
+            (
+                "controller.command_queue_depth=65",
+                "controller.command_queue_depth",
+            ),
+            (
+                "controller.admission_delay=1001",
+                "controller.admission_delay",
+            ),
             ("controller.write_drain=sometimes", "controller.write_drain"),
             ("refresh.batch=9", "refresh.batch"),
             ("refresh.batch=0", "refresh.batch"),

@@ -288,13 +288,24 @@ fn gddr5_trax_delays_match_the_issue() {
 #[test]
 fn issue_12_rules_bind_at_their_delay() {
     // (preset, settings, rule, expected delay in memory cycles)
-    let cases: [(&str, &[(&str, u32)], &str, u64); 4] = [
+    type Case<'a> = (&'a str, &'a [(&'a str, u32)], &'a str, u64);
+    let cases: [Case; 4] = [
         // GDDR5 tPPD: DRAMsim3's GDDR5_8Gb_x32 value, 5 tCK.
         ("gddr5-strata", &[], "PRE to PRE, same rank: tPPD", 5),
-        ("gddr5-8gb-x32", &[("tPPD", 9)], "PRE to PRE, same rank: tPPD", 9),
+        (
+            "gddr5-8gb-x32",
+            &[("tPPD", 9)],
+            "PRE to PRE, same rank: tPPD",
+            9,
+        ),
         // WR after WR to another rank: burst (4) + tRTRS (2) by default.
         ("ddr3-1600", &[], "WR to WR, other rank", 4 + 2),
-        ("ddr3-1600", &[("tRTRS_W2W", 5)], "WR to WR, other rank", 4 + 5),
+        (
+            "ddr3-1600",
+            &[("tRTRS_W2W", 5)],
+            "WR to WR, other rank",
+            4 + 5,
+        ),
     ];
     for (preset, sets, what, delay) in cases {
         let mut cfg = preset_config(preset).unwrap();
@@ -314,7 +325,11 @@ fn issue_12_rules_bind_at_their_delay() {
             .unwrap_or_else(|| panic!("{preset}: no rule `{what}`"));
         assert_eq!(c.cycles, delay, "{preset}: `{what}`");
         let out = run_rule(&spec, c).expect("scenario");
-        assert_eq!(out.earliest, out.prev_at + delay, "{preset}: `{what}` binds");
+        assert_eq!(
+            out.earliest,
+            out.prev_at + delay,
+            "{preset}: `{what}` binds"
+        );
     }
     // tRTRS_W2W = 0 (DRAMsim3): only the data burst separates writes to different ranks.
     let mut cfg = preset_config("ddr3-1600").unwrap();

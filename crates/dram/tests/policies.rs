@@ -159,7 +159,11 @@ fn batched_refresh_issues_eight_refs_every_eight_trefi() {
         }
         // Long run: time / tREFI.
         d.advance_to(100 * refi - 1);
-        assert_eq!(d.stats().refreshes, 96 + u64::from(batch == 1) * 3, "batch {batch}");
+        assert_eq!(
+            d.stats().refreshes,
+            96 + u64::from(batch == 1) * 3,
+            "batch {batch}"
+        );
         assert_legal(&d);
     }
 }

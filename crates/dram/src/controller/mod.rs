@@ -411,9 +411,7 @@ impl Channel {
             };
             let cmd = if self.write_mode { Cmd::Rd } else { Cmd::Wr };
             let protect = |c: Option<Candidate>| match c {
-                Some(c) if c.cmd == Cmd::Pre => {
-                    Some(Candidate::for_request(&self.q, cmd, h, true))
-                }
+                Some(c) if c.cmd == Cmd::Pre => Some(Candidate::for_request(&self.q, cmd, h, true)),
                 other => other,
             };
             let offer = protect(offer);

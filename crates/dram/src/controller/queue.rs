@@ -221,9 +221,7 @@ impl RequestQueues {
     #[inline]
     pub fn pop_arrived(&mut self, t: u64) -> Option<u32> {
         match self.pending.front() {
-            Some(&s)
-                if self.slab[s as usize].arrival_mem + self.policy.admission_delay <= t =>
-            {
+            Some(&s) if self.slab[s as usize].arrival_mem + self.policy.admission_delay <= t => {
                 self.pending.pop_front()
             }
             _ => None,
@@ -310,8 +308,7 @@ impl RequestQueues {
         let b = e.bank as usize;
         match e.op {
             MemOp::Read => {
-                if self.policy.forward_reads && self.find_line(MemOp::Write, b, e.addr).is_some()
-                {
+                if self.policy.forward_reads && self.find_line(MemOp::Write, b, e.addr).is_some() {
                     return Admit::Forwarded;
                 }
                 self.reads_arrived += 1;

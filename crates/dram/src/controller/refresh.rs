@@ -40,7 +40,13 @@ impl Refresh {
             period,
             batch,
             due: (0..n)
-                .map(|r| if stagger { period * (r + 1) / n } else { period })
+                .map(|r| {
+                    if stagger {
+                        period * (r + 1) / n
+                    } else {
+                        period
+                    }
+                })
                 .collect(),
             pending: vec![false; n as usize],
             left: vec![0; n as usize],
