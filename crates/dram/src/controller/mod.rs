@@ -325,6 +325,7 @@ impl Channel {
 
     /// Write-drain mode (USIMM's policy): enter at the high watermark or when no read waits,
     /// stay until the low watermark unless there is still nothing else to do.
+    #[inline]
     fn update_mode(&mut self, t: u64) {
         let wq = self.q.writes_arrived;
         let rq = self.q.reads_arrived;
@@ -334,15 +335,22 @@ impl Channel {
             wq >= self.ctl.write_high_watermark
         } || (rq == 0 && wq > 0);
         if want != self.write_mode {
-            if want {
-                self.stats.write_drain_episodes += 1;
-                self.drain_since = t;
-            } else {
-                self.stats.write_drain_cycles += t - self.drain_since;
-            }
-            self.write_mode = want;
-            self.mark_all_dirty();
+            self.switch_mode(want, t);
         }
+    }
+
+    /// Enter (`want`) or leave write-drain mode at `t`: the rare path of `update_mode`, kept
+    /// out of line so that the per-step check inlines.
+    #[inline(never)]
+    fn switch_mode(&mut self, want: bool, t: u64) {
+        if want {
+            self.stats.write_drain_episodes += 1;
+            self.drain_since = t;
+        } else {
+            self.stats.write_drain_cycles += t - self.drain_since;
+        }
+        self.write_mode = want;
+        self.mark_all_dirty();
     }
 
     #[inline]
