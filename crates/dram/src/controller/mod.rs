@@ -407,6 +407,15 @@ impl Channel {
         } else {
             (&self.q.reads[b], &self.q.writes[b])
         };
+        // Command queues: a bank holding only requests of the other kind serves those.
+        // Otherwise a drain whose writes wait for room in banks full of reads (or reads
+        // waiting behind banks full of writes) would wait forever; DRAMsim3 likewise serves
+        // whatever its command queues hold.
+        let (served, other) = if self.ctl.command_queue_depth > 0 && served.is_empty() {
+            (other, served)
+        } else {
+            (served, other)
+        };
         if c.write_drain == WriteDrainKind::ProtectRows {
             let (offer, alt) = offers(&self.q, served, &self.sched[b]);
             if open_row == CLOSED {
@@ -433,11 +442,11 @@ impl Channel {
             return (offer, alt);
         }
         if !self.write_mode {
-            return offers(&self.q, &self.q.reads[b], &self.sched[b]);
+            return offers(&self.q, served, &self.sched[b]);
         }
         match c.write_drain {
             WriteDrainKind::ProtectRows => unreachable!("handled above"),
-            WriteDrainKind::WritesOnly => offers(&self.q, &self.q.writes[b], &self.sched[b]),
+            WriteDrainKind::WritesOnly => offers(&self.q, served, &self.sched[b]),
             WriteDrainKind::Mixed => {
                 // Reads and writes of the bank together, oldest first.
                 let (r, w) = (&self.q.reads[b], &self.q.writes[b]);
