@@ -6,10 +6,9 @@ mod common;
 
 use common::*;
 use rtsim_core::{MemCompletion, MemOp, MemoryPort};
+use rtsim_dram::DramConfig;
 use rtsim_dram::config::{SchedulerKind, WriteDrainKind};
-use rtsim_dram::trace::{Pattern, Synthetic};
-use rtsim_dram::{DramConfig, DriveOptions, drive};
-use std::convert::Infallible;
+use rtsim_dram::trace::Pattern;
 
 fn finish_of(out: &[MemCompletion], id: u64) -> u64 {
     out.iter().find(|c| c.id == id).unwrap().finish
@@ -79,15 +78,7 @@ fn protected_drain_opens_fewer_unused_rows() {
         c.controller.write_drain = policy;
         let mut d = dram(&c);
         let cap = d.spec().org.capacity_bytes;
-        let t = Synthetic::new(Pattern::Random, 40_000, 0.7, 0, 64, cap, 3);
-        let s = drive(
-            &mut d,
-            t.map(Ok::<_, Infallible>),
-            DriveOptions::default(),
-            |_| {},
-        )
-        .unwrap();
-        let st = d.report(s.end_cycle).stats;
+        let st = run_synthetic(&mut d, Pattern::Random, 40_000, 0.7, 0, cap, 3).stats;
         (st.activates, st.unused_activates())
     };
     let (old_acts, old_unused) = run(WriteDrainKind::WritesOnly);
@@ -281,16 +272,8 @@ fn issue_12_knobs_stay_legal_and_lose_nothing() {
                 knob(&mut c);
                 let mut d = dram(&c);
                 let cap = d.spec().org.capacity_bytes;
-                let t = Synthetic::new(pattern, 2_000, 0.7, 0, 64, cap, 11);
-                let s = drive(
-                    &mut d,
-                    t.map(Ok::<_, Infallible>),
-                    DriveOptions::default(),
-                    |_| {},
-                )
-                .unwrap();
+                let st = run_synthetic(&mut d, pattern, 2_000, 0.7, 0, cap, 11).stats;
                 assert_legal(&d);
-                let st = d.report(s.end_cycle).stats;
                 let what = format!("{preset}, {name}, {pattern:?}");
                 assert_eq!(st.reads_done + st.writes_done, 2_000, "{what}");
                 assert_eq!(d.outstanding(), 0, "{what}");
