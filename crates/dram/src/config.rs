@@ -145,6 +145,18 @@ pub struct Timing {
     /// different ranks, and the read-to-write turnaround. Default 2.
     #[serde(rename = "tRTRS")]
     pub t_rtrs: u32,
+    /// Rank switch between two writes: WR after WR to another rank waits burst + this.
+    /// JESD79-3F, JESD79-4B, JESD209-3 and JESD212 define column-to-column spacing (tCCD) only
+    /// within a rank and leave rank-to-rank spacing to the system; a write to another rank
+    /// moves the termination (ODT) to other devices, so a memory controller leaves a bubble, as
+    /// USIMM does with tRTRS. DRAMsim3 applies only the burst (set 0 to reproduce it).
+    /// Default: same as tRTRS.
+    #[serde(rename = "tRTRS_W2W", skip_serializing_if = "Option::is_none")]
+    pub t_rtrs_w2w: Option<u32>,
+    /// Precharge to precharge, same rank (GDDR5's tPPD); 0 = no such rule (DDR3, DDR4,
+    /// LPDDR3 have none). Applies to refresh precharges as well. Default 0.
+    #[serde(rename = "tPPD")]
+    pub t_ppd: u32,
     /// REF to ACT or REF, same rank (refresh cycle time). Default 220.
     #[serde(rename = "tRFC")]
     pub t_rfc: u32,
@@ -199,6 +211,27 @@ pub enum SchedulerKind {
     FrFcfs,
     /// Oldest first within each bank; across banks the oldest ready command.
     Fcfs,
+    /// USIMM's FCFS (`scheduler-fcfs.c`): the first issuable command of any request, in
+    /// arrival order. A younger request of a bank may go first when the older one's command
+    /// cannot issue (its PRE may then close the older one's row).
+    UsimmFcfs,
+}
+
+/// What the banks serve in write-drain mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WriteDrainKind {
+    /// Only writes, as before (kept for comparison): a write's PRE may close a row that was
+    /// opened for a queued read before the read used it.
+    WritesOnly,
+    /// Writes in drain mode, reads otherwise, but a bank never precharges a row that queued
+    /// requests of the other kind want: it serves those hits first. So a drain does not close
+    /// a row opened for a queued read before the read uses it (USIMM's rule as issue 12 states
+    /// it), nor does the end of a drain close a row opened for a queued write.
+    ProtectRows,
+    /// Reads and writes together at every bank, FR-FCFS over both (DRAMsim3, whose per-bank
+    /// command queues hold both kinds while writes drain).
+    Mixed,
 }
 
 /// When rows are closed.
@@ -232,7 +265,7 @@ pub struct ControllerConfig {
     pub read_queue: u32,
     /// Write queue capacity per channel. 1..=32768. Default 96.
     pub write_queue: u32,
-    /// `fr-fcfs` or `fcfs`. Default `fr-fcfs`.
+    /// `fr-fcfs`, `fcfs` or `usimm-fcfs`. Default `fr-fcfs`.
     pub scheduler: SchedulerKind,
     /// FR-FCFS starvation cap: after this many row hits since the row was opened, if the bank's
     /// oldest request wants another row, hits lose their priority. 0 = no cap (as in USIMM).
@@ -244,6 +277,25 @@ pub struct ControllerConfig {
     pub protect_row_hits: bool,
     /// `open` or `closed`. Default `open`.
     pub row_policy: RowPolicyKind,
+    /// What banks serve in write-drain mode: `protect-rows` (writes, reads otherwise, but a row
+    /// wanted by queued requests of the other kind serves them before it is closed),
+    /// `writes-only` (the model before issue 12: a drain may close rows opened for reads, and
+    /// its end rows opened for writes) or `mixed` (reads and writes together while draining,
+    /// DRAMsim3). Default `protect-rows`.
+    pub write_drain: WriteDrainKind,
+    /// Memory cycles between a request's arrival at the controller and the first cycle in
+    /// which the scheduler may issue a command for it (pipeline delay; latency still counts
+    /// from arrival). DRAMsim3 issues two cycles after acceptance: 2 reproduces it; USIMM
+    /// one: 1. Cost: none. 0..=1000. Default 0.
+    pub admission_delay: u32,
+    /// Per-bank command queues behind the read and write queues (DRAMsim3's structure): 0 =
+    /// none (the scheduler sees every queued request); n > 0 = each bank holds at most n
+    /// requests, reads and writes together, and the scheduler sees only those. Each cycle the
+    /// oldest request of the queue being served (writes in drain mode, else reads) whose bank
+    /// has room moves there, freeing its read/write-queue slot, so up to `n × banks` more
+    /// requests wait in the controller. DRAMsim3 uses 8 (`queue_size`, per bank). 0..=64.
+    /// Default 0.
+    pub command_queue_depth: u32,
     /// Write-drain mode starts when the write queue holds at least this many writes; writes are
     /// also drained whenever no read waits (as in USIMM). Default 40.
     pub write_high_watermark: u32,
@@ -278,6 +330,11 @@ pub struct RefreshConfig {
     /// Spread the ranks' refreshes evenly over tREFI instead of refreshing all ranks at once.
     /// Default true.
     pub stagger_ranks: bool,
+    /// REFs issued back to back per due time; due times are `batch × tREFI` apart, so the
+    /// refresh rate is unchanged. 1 = one REF every tREFI (DRAMsim3); 8 = USIMM's eight every
+    /// 8 × tREFI (JESD79-3F §4.9.1 and JESD79-4B §4.24 allow up to eight REFs to be postponed
+    /// and issued together). A batch blocks the rank for `batch × tRFC`. 1..=8. Default 1.
+    pub batch: u32,
 }
 
 /// Settings of standalone trace runs (`rtsim dram`); ignored by chip models.
@@ -353,6 +410,8 @@ impl Default for Timing {
             t_ccd: 4,
             t_ccd_l: None,
             t_rtrs: 2,
+            t_rtrs_w2w: None,
+            t_ppd: 0,
             t_rfc: 220,
             t_refi: 15600,
             t_xp: 13,
@@ -387,6 +446,9 @@ impl Default for ControllerConfig {
             row_hit_cap: 0,
             protect_row_hits: true,
             row_policy: RowPolicyKind::Open,
+            write_drain: WriteDrainKind::ProtectRows,
+            admission_delay: 0,
+            command_queue_depth: 0,
             write_high_watermark: 40,
             write_low_watermark: 20,
             forward_reads: true,
@@ -404,6 +466,7 @@ impl Default for RefreshConfig {
         RefreshConfig {
             enabled: true,
             stagger_ranks: true,
+            batch: 1,
         }
     }
 }
@@ -433,6 +496,10 @@ impl Timing {
     /// tCCD_L, or tCCD when not given.
     pub fn ccd_l(&self) -> u32 {
         self.t_ccd_l.unwrap_or(self.t_ccd)
+    }
+    /// tRTRS_W2W, or tRTRS when not given.
+    pub fn rtrs_w2w(&self) -> u32 {
+        self.t_rtrs_w2w.unwrap_or(self.t_rtrs)
     }
 }
 
@@ -482,6 +549,7 @@ impl Validate for DramConfig {
         self.timing.validate_with(&self.organisation)?;
         self.current.validate()?;
         self.controller.validate()?;
+        check_range("refresh.batch", self.refresh.batch, 1, 8)?;
         check_range(
             "trace.usimm_max_outstanding_reads",
             self.trace.usimm_max_outstanding_reads,
@@ -614,12 +682,14 @@ impl Timing {
         for (k, v) in positive {
             check_range(k, v, 1, m)?;
         }
-        let any: [(&str, u32); 5] = [
+        let any: [(&str, u32); 7] = [
             ("timing.tFAW", self.t_faw),
             ("timing.t32AW", self.t_32aw),
             ("timing.tWR", self.t_wr),
             ("timing.tWTR", self.t_wtr),
             ("timing.tRTRS", self.t_rtrs),
+            ("timing.tRTRS_W2W", self.rtrs_w2w()),
+            ("timing.tPPD", self.t_ppd),
         ];
         for (k, v) in any {
             check_range(k, v, 0, m)?;
@@ -713,6 +783,13 @@ impl Validate for ControllerConfig {
         check_range("controller.read_queue", c.read_queue, 1, 32768)?;
         check_range("controller.write_queue", c.write_queue, 1, 32768)?;
         check_range("controller.row_hit_cap", c.row_hit_cap, 0, 1_000_000)?;
+        check_range("controller.admission_delay", c.admission_delay, 0, 1000)?;
+        check_range(
+            "controller.command_queue_depth",
+            c.command_queue_depth,
+            0,
+            64,
+        )?;
         check_range(
             "controller.write_high_watermark",
             c.write_high_watermark,
@@ -993,6 +1070,17 @@ mod tests {
             ("organisation.line_bytes=16", "organisation.line_bytes"),
             ("mapping=rank:bank:channel:column:offset", "mapping"),
             ("timing.tRCD=9999999", "between two refreshes"),
+            (
+                "controller.command_queue_depth=65",
+                "controller.command_queue_depth",
+            ),
+            (
+                "controller.admission_delay=1001",
+                "controller.admission_delay",
+            ),
+            ("controller.write_drain=sometimes", "controller.write_drain"),
+            ("refresh.batch=9", "refresh.batch"),
+            ("refresh.batch=0", "refresh.batch"),
         ];
         for (set, key) in cases {
             let sets = vec![set.to_string()];

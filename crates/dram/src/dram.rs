@@ -260,6 +260,7 @@ impl MemoryPort for Dram {
             row: loc.row,
             act_for: false,
             pre_for: false,
+            in_cq: false,
             merged: NIL,
             next_merged: NIL,
         });

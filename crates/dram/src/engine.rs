@@ -20,12 +20,16 @@ const K: usize = Cmd::KINDS;
 /// per-group tables are this narrow (32 bytes per bank: cache-friendly scans).
 const BK: usize = 4;
 
-/// A rule as the engine applies it: 8 bytes, so that a command's rules share a cache line.
-#[derive(Clone, Copy, Debug)]
-struct Applied {
-    scope: Scope,
-    kind: u8,
-    cycles: u32,
+/// The delays one issued command imposes, by scope and next-command kind (0 = none): the
+/// table's rules for that command folded together (the largest delay per scope and kind), so
+/// that issuing is a fixed pass over a few short arrays.
+#[derive(Clone, Copy, Debug, Default)]
+struct Delays {
+    bank: [u32; BK],
+    group: [u32; BK],
+    rank: [u32; K],
+    other_ranks: [u32; K],
+    channel: [u32; K],
 }
 
 /// An activation window: at most `window` ACTs in any `cycles` cycles of one rank.
@@ -44,9 +48,9 @@ struct Window {
 pub struct Engine {
     ranks: usize,
     banks_per_rank: usize,
-    /// Rules grouped by the issued command (RDA also gets RD's rules, WRA WR's), window rules
-    /// excluded.
-    by_prev: Vec<Vec<Applied>>,
+    groups_per_rank: usize,
+    /// Delays by issued command (RDA also gets RD's rules, WRA WR's), window rules excluded.
+    by_prev: Vec<Delays>,
     windows: Vec<Window>,
     bank_next: Vec<[u64; BK]>,
     group_next: Vec<[u64; BK]>,
@@ -62,6 +66,8 @@ pub struct Engine {
     act_time: Vec<u64>,
     open_in_rank: Vec<u32>,
     powered_down: Vec<bool>,
+    /// Ranks powered down.
+    powered_down_count: usize,
     last_issue: Option<u64>,
 }
 
@@ -70,8 +76,9 @@ impl Engine {
         let o = &spec.org;
         let ranks = o.ranks as usize;
         let banks_per_rank = o.banks_per_rank as usize;
-        let mut by_prev = vec![Vec::new(); Cmd::ALL.len()];
+        let mut by_prev = vec![Delays::default(); Cmd::ALL.len()];
         let mut windows = Vec::new();
+        let mut shared_raise = vec![0u8; Cmd::ALL.len()];
         for c in &spec.constraints {
             if c.cycles == 0 {
                 continue; // can never bind
@@ -91,22 +98,25 @@ impl Engine {
                 });
                 continue;
             }
+            let mut shared_raise_bits = 0u8;
+            let k = c.next.kind();
+            if c.scope != Scope::Bank {
+                shared_raise_bits |= 1 << k;
+            }
+            // Timing values are validated to at most 10^7 cycles, sums far below 2^32.
+            let cycles = u32::try_from(c.cycles).unwrap_or(u32::MAX);
             for issued in Cmd::ALL {
                 if c.prev.covers(issued) {
-                    by_prev[issued as usize].push(Applied {
-                        scope: c.scope,
-                        kind: c.next.kind() as u8,
-                        // Timing values are validated to at most 10^7 cycles, sums far below 2^32.
-                        cycles: u32::try_from(c.cycles).unwrap_or(u32::MAX),
-                    });
-                }
-            }
-        }
-        let mut shared_raise = vec![0u8; Cmd::ALL.len()];
-        for issued in Cmd::ALL {
-            for c in &by_prev[issued as usize] {
-                if c.scope != Scope::Bank {
-                    shared_raise[issued as usize] |= 1 << c.kind;
+                    let d = &mut by_prev[issued as usize];
+                    let slot = match c.scope {
+                        Scope::Bank => &mut d.bank[k],
+                        Scope::BankGroup => &mut d.group[k],
+                        Scope::Rank => &mut d.rank[k],
+                        Scope::OtherRanks => &mut d.other_ranks[k],
+                        Scope::Channel => &mut d.channel[k],
+                    };
+                    *slot = (*slot).max(cycles);
+                    shared_raise[issued as usize] |= shared_raise_bits;
                 }
             }
         }
@@ -117,6 +127,7 @@ impl Engine {
             shared_raise,
             ranks,
             banks_per_rank,
+            groups_per_rank: o.bank_groups as usize,
             by_prev,
             windows,
             bank_next: vec![[0; BK]; ranks * banks_per_rank],
@@ -136,6 +147,7 @@ impl Engine {
             act_time: vec![0; ranks * banks_per_rank],
             open_in_rank: vec![0; ranks],
             powered_down: vec![false; ranks],
+            powered_down_count: 0,
             last_issue: None,
         }
     }
@@ -170,6 +182,36 @@ impl Engine {
             .max(self.group_next[self.group_of[b] as usize][k])
     }
 
+    /// The bank's own part of [`Engine::earliest_bank`]: rules of bank scope only. It changes
+    /// only when a command is issued to bank `b`.
+    #[inline(always)]
+    pub fn bank_ready(&self, k: usize, b: usize) -> u64 {
+        self.bank_next[b][k]
+    }
+
+    /// The shared part of [`Engine::earliest_bank`] for the banks of flat bank group `g`: rules
+    /// of bank-group, rank and channel scope (with other-rank rules and activation windows,
+    /// which raise the rank's entries). `earliest_bank(k, b) = max(bank_ready(k, b),
+    /// group_ready(k, group_index(b)))`; issuing a command changes it only for the kinds in
+    /// [`Engine::shared_raise`].
+    #[inline(always)]
+    pub fn group_ready(&self, k: usize, g: usize) -> u64 {
+        self.group_next[g][k]
+            .max(self.rank_next[g / self.groups_per_rank][k])
+            .max(self.chan_next[k])
+    }
+
+    /// Flat bank-group index (rank × groups per rank + group) of flat bank `b`.
+    #[inline(always)]
+    pub fn group_index(&self, b: usize) -> usize {
+        self.group_of[b] as usize
+    }
+
+    /// Bank groups in the channel (all ranks).
+    pub fn groups(&self) -> usize {
+        self.group_next.len()
+    }
+
     /// Does the bank/rank state allow `cmd` (to `row`, for ACT and column commands)?
     pub fn state_allows(&self, cmd: Cmd, b: usize, row: u32) -> bool {
         let rank = b / self.banks_per_rank;
@@ -202,20 +244,14 @@ impl Engine {
         self.last_issue = Some(t);
         let rank = self.rank_of[b] as usize;
         let group = self.group_of[b] as usize;
-        let rules = &self.by_prev[cmd as usize];
-        for c in rules {
-            let at = t + u64::from(c.cycles);
-            let k = usize::from(c.kind);
-            match c.scope {
-                Scope::Bank => raise(&mut self.bank_next[b][k], at),
-                Scope::BankGroup => raise(&mut self.group_next[group][k], at),
-                Scope::Rank => raise(&mut self.rank_next[rank][k], at),
-                Scope::Channel => raise(&mut self.chan_next[k], at),
-                Scope::OtherRanks => {
-                    for r in (0..self.ranks).filter(|&r| r != rank) {
-                        raise(&mut self.rank_next[r][k], at);
-                    }
-                }
+        let d = &self.by_prev[cmd as usize];
+        raise_all(&mut self.bank_next[b], &d.bank, t);
+        raise_all(&mut self.group_next[group], &d.group, t);
+        raise_all(&mut self.rank_next[rank], &d.rank, t);
+        raise_all(&mut self.chan_next, &d.channel, t);
+        if self.ranks > 1 {
+            for r in (0..self.ranks).filter(|&r| r != rank) {
+                raise_all(&mut self.rank_next[r], &d.other_ranks, t);
             }
         }
         match cmd {
@@ -240,8 +276,14 @@ impl Engine {
                 self.open_row[b] = CLOSED;
                 self.open_in_rank[rank] -= 1;
             }
-            Cmd::Pde => self.powered_down[rank] = true,
-            Cmd::Pdx => self.powered_down[rank] = false,
+            Cmd::Pde => {
+                self.powered_down[rank] = true;
+                self.powered_down_count += 1;
+            }
+            Cmd::Pdx => {
+                self.powered_down[rank] = false;
+                self.powered_down_count -= 1;
+            }
             Cmd::Rd | Cmd::Wr | Cmd::Ref => {}
         }
     }
@@ -271,6 +313,12 @@ impl Engine {
         self.open_in_rank[rank]
     }
 
+    /// Is any rank powered down?
+    #[inline]
+    pub fn any_powered_down(&self) -> bool {
+        self.powered_down_count > 0
+    }
+
     #[inline]
     pub fn is_powered_down(&self, rank: usize) -> bool {
         self.powered_down[rank]
@@ -287,6 +335,16 @@ impl Engine {
 
     pub fn ranks(&self) -> usize {
         self.ranks
+    }
+}
+
+/// Raise each `next[k]` to `t + delay[k]` where the delay is not 0 (no rule).
+#[inline(always)]
+fn raise_all<const N: usize>(next: &mut [u64; N], delay: &[u32; N], t: u64) {
+    for (n, &d) in next.iter_mut().zip(delay) {
+        if d != 0 {
+            raise(n, t + u64::from(d));
+        }
     }
 }
 

@@ -282,3 +282,67 @@ fn gddr5_trax_delays_match_the_issue() {
     assert_eq!(spec.t.burst, 4);
     assert_eq!(spec.t.refi, 15600);
 }
+
+/// The rules issue 12 added, each named: the second command is refused at `t − 1` and accepted
+/// at `t`, the rule's own delay binds, and the independent checker agrees (inside `run_rule`).
+#[test]
+fn issue_12_rules_bind_at_their_delay() {
+    // (preset, settings, rule, expected delay in memory cycles)
+    type Case<'a> = (&'a str, &'a [(&'a str, u32)], &'a str, u64);
+    let cases: [Case; 4] = [
+        // GDDR5 tPPD: DRAMsim3's GDDR5_8Gb_x32 value, 5 tCK.
+        ("gddr5-strata", &[], "PRE to PRE, same rank: tPPD", 5),
+        (
+            "gddr5-8gb-x32",
+            &[("tPPD", 9)],
+            "PRE to PRE, same rank: tPPD",
+            9,
+        ),
+        // WR after WR to another rank: burst (4) + tRTRS (2) by default.
+        ("ddr3-1600", &[], "WR to WR, other rank", 4 + 2),
+        (
+            "ddr3-1600",
+            &[("tRTRS_W2W", 5)],
+            "WR to WR, other rank",
+            4 + 5,
+        ),
+    ];
+    for (preset, sets, what, delay) in cases {
+        let mut cfg = preset_config(preset).unwrap();
+        cfg.refresh.enabled = false;
+        for &(k, v) in sets {
+            match k {
+                "tPPD" => cfg.timing.t_ppd = v,
+                "tRTRS_W2W" => cfg.timing.t_rtrs_w2w = Some(v),
+                _ => unreachable!("{k}"),
+            }
+        }
+        let spec = DramSpec::new(&cfg, Requester::mhz(1000.0)).unwrap();
+        let c = spec
+            .constraints
+            .iter()
+            .find(|c| c.what.starts_with(what))
+            .unwrap_or_else(|| panic!("{preset}: no rule `{what}`"));
+        assert_eq!(c.cycles, delay, "{preset}: `{what}`");
+        let out = run_rule(&spec, c).expect("scenario");
+        assert_eq!(
+            out.earliest,
+            out.prev_at + delay,
+            "{preset}: `{what}` binds"
+        );
+    }
+    // tRTRS_W2W = 0 (DRAMsim3): only the data burst separates writes to different ranks.
+    let mut cfg = preset_config("ddr3-1600").unwrap();
+    cfg.refresh.enabled = false;
+    cfg.timing.t_rtrs_w2w = Some(0);
+    let spec = DramSpec::new(&cfg, Requester::mhz(1000.0)).unwrap();
+    let c = spec
+        .constraints
+        .iter()
+        .find(|c| c.what.starts_with("WR to WR, any rank"))
+        .unwrap();
+    let mut other_rank = *c;
+    other_rank.scope = Scope::OtherRanks;
+    let out = run_rule(&spec, &other_rank).expect("scenario");
+    assert_eq!(out.earliest, out.prev_at + 4);
+}

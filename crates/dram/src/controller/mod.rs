@@ -17,7 +17,7 @@ pub mod row_policy;
 pub mod scheduler;
 
 use crate::checker::Checker;
-use crate::config::{ControllerConfig, PowerDownKind, SchedulerKind};
+use crate::config::{ControllerConfig, PowerDownKind, SchedulerKind, WriteDrainKind};
 use crate::engine::{CLOSED, Engine};
 use crate::spec::DramSpec;
 use crate::spec::Ratio;
@@ -48,8 +48,17 @@ pub struct Channel {
     ctl: ControllerConfig,
     /// Each bank's offer, recomputed lazily for `dirty` banks.
     offers: Offers,
-    /// Alternative offers (PRE behind a row hit; only without row-hit protection).
+    /// Alternative offers: the command a bank offers when its offer cannot issue (USIMM's
+    /// FCFS; PRE behind a row hit without row-hit protection). Used only when `use_alts`.
     alts: Offers,
+    use_alts: bool,
+    /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
+    merged_list: Vec<u32>,
+    /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 8 + k`, kept
+    /// current after each command for the kinds it raises. An offer's earliest cycle is the
+    /// larger of its bank's own ready time and its entry here, so a command touches only the
+    /// few entries it raises instead of every bank's offer.
+    shared: Box<Calendar>,
     dirty: Vec<bool>,
     dirty_list: Vec<u32>,
     sched: Vec<BankSched>,
@@ -89,14 +98,22 @@ impl Channel {
             merge_reads: ctl.merge_reads,
             merge_writes: ctl.merge_writes,
             forward_reads: ctl.forward_reads,
+            admission_delay: ctl.admission_delay.into(),
+            command_queue_depth: ctl.command_queue_depth,
         };
         let mut ch = Channel {
             index,
             engine: Engine::new(spec),
             q: RequestQueues::new(policy, banks, o.ranks as usize),
-            ctl,
             offers: Offers::new(banks),
             alts: Offers::new(banks),
+            use_alts: !ctl.protect_row_hits || ctl.scheduler == SchedulerKind::UsimmFcfs,
+            merged_list: Vec::with_capacity(
+                (ctl.read_queue + ctl.write_queue) as usize
+                    + banks * ctl.command_queue_depth as usize,
+            ),
+            ctl,
+            shared: Box::new([0; CALENDAR_LEN]),
             dirty: vec![true; banks],
             dirty_list: (0..banks as u32).collect(),
             sched: vec![BankSched::default(); banks],
@@ -123,6 +140,7 @@ impl Channel {
             checker: spec.config.check.then(|| Checker::new(spec, index)),
             done: Vec::with_capacity((spec.controller().read_queue * 2) as usize),
         };
+        ch.update_shared(u8::MAX);
         ch.next_event = ch.compute_next_event(0);
         ch
     }
@@ -149,7 +167,9 @@ impl Channel {
             }
         }
         self.q.push_pending(e);
-        self.next_event = self.next_event.min(e.arrival_mem);
+        self.next_event = self
+            .next_event
+            .min(e.arrival_mem + u64::from(self.ctl.admission_delay));
     }
 
     /// Count a refused request.
@@ -191,10 +211,11 @@ impl Channel {
     /// last due refresh of each rank up to `limit` are counted without being simulated; the last
     /// is simulated normally, which leaves exactly the state ticking would. Returns whether any
     /// refresh was skipped.
+    #[inline]
     fn skip_idle_refreshes(&mut self, limit: u64) -> bool {
         if !self.refresh.enabled
             || self.ctl.power_down != PowerDownKind::Off
-            || self.q.occupied() > self.q.pending_len()
+            || self.q.reads_arrived + self.q.writes_arrived > 0
         {
             return false;
         }
@@ -202,7 +223,8 @@ impl Channel {
             Some(a) if a <= limit => a.saturating_sub(1),
             _ => limit,
         };
-        let refi = self.refresh.interval();
+        let period = self.refresh.period();
+        let batch = u64::from(self.refresh.batch());
         let mut skipped = false;
         for r in 0..self.engine.ranks() {
             if self.refresh.pending[r] || self.engine.open_banks(r) > 0 {
@@ -212,10 +234,10 @@ impl Channel {
         for r in 0..self.engine.ranks() {
             let due = self.refresh.due[r];
             if due <= end {
-                let n = (end - due) / refi;
+                let n = (end - due) / period;
                 if n > 0 {
-                    self.refresh.due[r] += n * refi;
-                    self.stats.refreshes += n;
+                    self.refresh.skip(r, n);
+                    self.stats.refreshes += n * batch;
                     skipped = true;
                 }
             }
@@ -232,13 +254,23 @@ impl Channel {
             self.mark_all_dirty();
         }
         self.update_mode(t);
-        if let Some(c) = self.choose(t) {
+        if self.ctl.command_queue_depth > 0 {
+            // One request per cycle into its bank's command queue: writes while draining.
+            if let Some(b) = self.q.transfer(self.served_op()) {
+                self.mark_dirty(b);
+            }
+        }
+        let (choice, offers_min) = self.choose(t);
+        self.done_below = t + 1;
+        if let Some(c) = choice {
             self.issue(c, t);
             // Serving a request changes the queue lengths the drain mode depends on.
             self.update_mode(t + 1);
+            self.settle_candidates();
+            self.next_event = self.exact_next_event(t + 1);
+        } else {
+            self.next_event = self.next_event_from(t + 1, offers_min);
         }
-        self.done_below = t + 1;
-        self.next_event = self.compute_next_event(t + 1);
     }
 
     fn integrate_occupancy(&mut self, t: u64) {
@@ -256,6 +288,7 @@ impl Channel {
         self.last_busy[e.rank as usize] = t;
         match self.q.admit(slot) {
             Admit::Queued => self.mark_dirty(e.bank as usize),
+            Admit::Staged => {}
             Admit::Merged(_) => match e.op {
                 MemOp::Read => self.stats.reads_merged += 1,
                 MemOp::Write => self.stats.writes_merged += 1,
@@ -292,6 +325,7 @@ impl Channel {
 
     /// Write-drain mode (USIMM's policy): enter at the high watermark or when no read waits,
     /// stay until the low watermark unless there is still nothing else to do.
+    #[inline]
     fn update_mode(&mut self, t: u64) {
         let wq = self.q.writes_arrived;
         let rq = self.q.reads_arrived;
@@ -301,20 +335,37 @@ impl Channel {
             wq >= self.ctl.write_high_watermark
         } || (rq == 0 && wq > 0);
         if want != self.write_mode {
-            if want {
-                self.stats.write_drain_episodes += 1;
-                self.drain_since = t;
-            } else {
-                self.stats.write_drain_cycles += t - self.drain_since;
-            }
-            self.write_mode = want;
-            self.mark_all_dirty();
+            self.switch_mode(want, t);
         }
+    }
+
+    /// Enter (`want`) or leave write-drain mode at `t`: the rare path of `update_mode`, kept
+    /// out of line so that the per-step check inlines.
+    #[inline(never)]
+    fn switch_mode(&mut self, want: bool, t: u64) {
+        if want {
+            self.stats.write_drain_episodes += 1;
+            self.drain_since = t;
+        } else {
+            self.stats.write_drain_cycles += t - self.drain_since;
+        }
+        self.write_mode = want;
+        self.mark_all_dirty();
     }
 
     #[inline]
     fn rank_blocked(&self, rank: usize) -> bool {
         self.refresh.pending[rank] || self.engine.is_powered_down(rank)
+    }
+
+    /// The kind of request being served: writes in write-drain mode, else reads.
+    #[inline]
+    fn served_op(&self) -> MemOp {
+        if self.write_mode {
+            MemOp::Write
+        } else {
+            MemOp::Read
+        }
     }
 
     /// Recompute the offers of banks whose inputs changed.
@@ -323,39 +374,96 @@ impl Channel {
             let b = b as usize;
             self.dirty[b] = false;
             let rank = b / self.banks_per_rank;
-            let offer = if self.rank_blocked(rank) {
-                None
+            let (offer, alt) = if self.rank_blocked(rank) {
+                (None, None)
             } else {
-                let op = if self.write_mode {
-                    MemOp::Write
-                } else {
-                    MemOp::Read
-                };
-                scheduler::bank_candidate(
-                    self.ctl.scheduler,
-                    self.ctl.row_hit_cap,
-                    &self.sched[b],
-                    &self.q,
-                    b,
-                    op,
-                    self.engine.open_row(b),
-                )
-            };
-            let alt = match offer {
-                Some(c) if c.hit && !self.ctl.protect_row_hits => {
-                    let op = if self.write_mode {
-                        MemOp::Write
-                    } else {
-                        MemOp::Read
-                    };
-                    scheduler::bank_alternative(&self.q, b, op, self.engine.open_row(b))
-                }
-                _ => None,
+                self.bank_offers(b)
             };
             let kind = self.ctl.scheduler;
             self.offers.set(b, offer, kind, &self.engine);
-            if !self.ctl.protect_row_hits {
+            if self.use_alts {
                 self.alts.set(b, alt, kind, &self.engine);
+            }
+        }
+    }
+
+    /// Bank `b`'s offer and alternative for the requests being served.
+    fn bank_offers(&mut self, b: usize) -> (Option<Candidate>, Option<Candidate>) {
+        let open_row = self.engine.open_row(b);
+        let c = &self.ctl;
+        let offers = |q: &RequestQueues, list: &[u32], st: &BankSched| {
+            scheduler::bank_offers(
+                c.scheduler,
+                c.row_hit_cap,
+                c.protect_row_hits,
+                st,
+                q,
+                list,
+                open_row,
+            )
+        };
+        let (served, other) = if self.write_mode {
+            (&self.q.writes[b], &self.q.reads[b])
+        } else {
+            (&self.q.reads[b], &self.q.writes[b])
+        };
+        // Command queues: a bank holding only requests of the other kind serves those.
+        // Otherwise a drain whose writes wait for room in banks full of reads (or reads
+        // waiting behind banks full of writes) would wait forever; DRAMsim3 likewise serves
+        // whatever its command queues hold.
+        let (served, other) = if self.ctl.command_queue_depth > 0 && served.is_empty() {
+            (other, served)
+        } else {
+            (served, other)
+        };
+        if c.write_drain == WriteDrainKind::ProtectRows {
+            let (offer, alt) = offers(&self.q, served, &self.sched[b]);
+            if open_row == CLOSED {
+                return (offer, alt);
+            }
+            // A PRE would close a row that queued requests of the other kind want: serve the
+            // oldest of those first instead (its own kind's column command).
+            let Some(h) = other.iter().copied().find(|&s| self.q.row(s) == open_row) else {
+                return (offer, alt);
+            };
+            let cmd = if self.write_mode { Cmd::Rd } else { Cmd::Wr };
+            let protect = |c: Option<Candidate>| match c {
+                Some(c) if c.cmd == Cmd::Pre => Some(Candidate::for_request(&self.q, cmd, h, true)),
+                other => other,
+            };
+            let offer = protect(offer);
+            let alt = protect(alt);
+            // Both may now be the same request; keep one.
+            let alt = if alt.map(|a| a.slot) == offer.map(|o| o.slot) {
+                None
+            } else {
+                alt
+            };
+            return (offer, alt);
+        }
+        if !self.write_mode {
+            return offers(&self.q, served, &self.sched[b]);
+        }
+        match c.write_drain {
+            WriteDrainKind::ProtectRows => unreachable!("handled above"),
+            WriteDrainKind::WritesOnly => offers(&self.q, served, &self.sched[b]),
+            WriteDrainKind::Mixed => {
+                // Reads and writes of the bank together, oldest first.
+                let (r, w) = (&self.q.reads[b], &self.q.writes[b]);
+                self.merged_list.clear();
+                let (mut i, mut j) = (0, 0);
+                while i < r.len() || j < w.len() {
+                    let take_read = j == w.len()
+                        || (i < r.len() && self.q.get(r[i]).seq < self.q.get(w[j]).seq);
+                    if take_read {
+                        self.merged_list.push(r[i]);
+                        i += 1;
+                    } else {
+                        self.merged_list.push(w[j]);
+                        j += 1;
+                    }
+                }
+                offers(&self.q, &self.merged_list, &self.sched[b])
             }
         }
     }
@@ -371,8 +479,63 @@ impl Channel {
             && !self.refresh.pending[rank]
     }
 
-    /// Pick the command to issue at `t`, if any is ready.
-    fn choose(&mut self, t: u64) -> Option<Choice> {
+    /// Pick the command to issue at `t`, if any is ready; with the earliest ready time of any
+    /// bank's offer (`u64::MAX` if not scanned or none).
+    fn choose(&mut self, t: u64) -> (Option<Choice>, u64) {
+        let mut offers_min = u64::MAX;
+        let c = self.choose_inner(t, &mut offers_min);
+        (c, offers_min)
+    }
+
+    fn choose_inner(&mut self, t: u64, offers_min: &mut u64) -> Option<Choice> {
+        let bpr = self.banks_per_rank;
+        let ranks = self.engine.ranks();
+        if self.refresh.any_pending() || self.engine.any_powered_down() {
+            if let Some(c) = self.rank_command(t) {
+                return Some(c);
+            }
+        }
+        // Requests.
+        self.settle_candidates();
+        let alts = self.use_alts.then_some(&self.alts);
+        let pick = self.offers.scan(alts, &self.shared, t);
+        *offers_min = pick.min_ready;
+        if let Some((b, alt)) = pick.best {
+            let c = if alt {
+                self.alts.cand[b]
+            } else {
+                self.offers.cand[b]
+            };
+            return Some(Choice {
+                cmd: c.cmd,
+                bank: b,
+                row: c.row,
+                slot: c.slot,
+            });
+        }
+        // Power-down entry.
+        if self.ctl.power_down == PowerDownKind::Off {
+            return None;
+        }
+        for r in 0..ranks {
+            if self.may_power_down(r)
+                && t >= self.last_busy[r] + u64::from(self.ctl.power_down_idle)
+                && self.engine.earliest(Cmd::Pde, r * bpr) <= t
+            {
+                return Some(Choice {
+                    cmd: Cmd::Pde,
+                    bank: r * bpr,
+                    row: CLOSED,
+                    slot: NIL,
+                });
+            }
+        }
+        None
+    }
+
+    /// Power-down exit or refresh preparation (PRE, then REF) ready at `t`: these come before
+    /// requests.
+    fn rank_command(&self, t: u64) -> Option<Choice> {
         let bpr = self.banks_per_rank;
         let ranks = self.engine.ranks();
         // Power-down exit.
@@ -408,52 +571,6 @@ impl Channel {
             } else if self.engine.earliest(Cmd::Ref, r * bpr) <= t {
                 return Some(Choice {
                     cmd: Cmd::Ref,
-                    bank: r * bpr,
-                    row: CLOSED,
-                    slot: NIL,
-                });
-            }
-        }
-        // Requests.
-        self.settle_candidates();
-        // The ready offer of highest priority (the lowest bank among equals); an offer that
-        // cannot issue yields to its bank's alternative, if that can.
-        let (o, a) = (&self.offers, &self.alts);
-        let mut best = (u64::MAX, usize::MAX);
-        for b in 0..o.ready.len() {
-            let p = if o.ready[b] <= t {
-                o.priority[b]
-            } else if a.ready[b] <= t {
-                a.priority[b]
-            } else {
-                continue;
-            };
-            if p < best.0 {
-                best = (p, b);
-            }
-        }
-        if best.1 != usize::MAX {
-            let b = best.1;
-            let c = if o.ready[b] <= t {
-                o.cand[b]
-            } else {
-                a.cand[b]
-            };
-            return Some(Choice {
-                cmd: c.cmd,
-                bank: b,
-                row: c.row,
-                slot: c.slot,
-            });
-        }
-        // Power-down entry.
-        for r in 0..ranks {
-            if self.may_power_down(r)
-                && t >= self.last_busy[r] + u64::from(self.ctl.power_down_idle)
-                && self.engine.earliest(Cmd::Pde, r * bpr) <= t
-            {
-                return Some(Choice {
-                    cmd: Cmd::Pde,
                     bank: r * bpr,
                     row: CLOSED,
                     slot: NIL,
@@ -530,21 +647,19 @@ impl Channel {
             }
         }
         self.mark_dirty(b);
-        // Settle the changed offers first, so that the refresh below, which also recomputes
-        // the earliest offer, sees them.
+        self.update_shared(self.engine.shared_raise(cmd));
         self.settle_candidates();
-        self.refresh_ready(self.engine.shared_raise(cmd));
     }
 
-    /// Recompute the ready times of offers whose kind is in `mask` (bit `1 << kind`).
+    /// Bring the calendar's entries of the kinds in `mask` (bit `1 << kind`) up to date.
     #[inline]
-    fn refresh_ready(&mut self, mask: u8) {
-        if mask == 0 {
-            return;
-        }
-        self.offers.refresh(mask, &self.engine);
-        if !self.ctl.protect_row_hits {
-            self.alts.refresh(mask, &self.engine);
+    fn update_shared(&mut self, mask: u8) {
+        for k in 0..BANK_KINDS {
+            if mask & (1 << k) != 0 {
+                for g in 0..self.engine.groups() {
+                    self.shared[g * SHARED_STRIDE + k] = self.engine.group_ready(k, g);
+                }
+            }
         }
     }
 
@@ -626,6 +741,21 @@ impl Channel {
 
     /// The earliest cycle ≥ `from` at which something can happen.
     fn compute_next_event(&mut self, from: u64) -> u64 {
+        self.settle_candidates();
+        self.exact_next_event(from)
+    }
+
+    /// [`Channel::compute_next_event`] with every offer settled.
+    fn exact_next_event(&self, from: u64) -> u64 {
+        debug_assert!(self.dirty_list.is_empty());
+        let alts = self.use_alts.then_some(&self.alts);
+        let min = self.offers.scan(alts, &self.shared, 0).min_ready;
+        self.next_event_from(from, min)
+    }
+
+    /// The earliest cycle ≥ `from` at which something can happen, given the earliest ready
+    /// time of any offer.
+    fn next_event_from(&self, from: u64, offers_min: u64) -> u64 {
         let bpr = self.banks_per_rank;
         let mut e = u64::MAX;
         if let Some(a) = self.q.next_arrival() {
@@ -634,7 +764,13 @@ impl Channel {
         if let Some(d) = self.refresh.next_due() {
             e = e.min(d);
         }
+        let rank_events = self.refresh.any_pending()
+            || self.engine.any_powered_down()
+            || self.ctl.power_down != PowerDownKind::Off;
         for r in 0..self.engine.ranks() {
+            if !rank_events {
+                break;
+            }
             if self.engine.is_powered_down(r) {
                 if self.wants_wake(r) {
                     e = e.min(self.engine.earliest(Cmd::Pdx, r * bpr));
@@ -657,10 +793,9 @@ impl Channel {
                 e = e.min(at);
             }
         }
-        self.settle_candidates();
-        e = e.min(self.offers.earliest());
-        if !self.ctl.protect_row_hits {
-            e = e.min(self.alts.earliest());
+        e = e.min(offers_min);
+        if self.ctl.command_queue_depth > 0 && self.q.can_transfer(self.served_op()) {
+            e = e.min(from);
         }
         if e == u64::MAX { e } else { e.max(from) }
     }
@@ -712,88 +847,123 @@ impl Channel {
     }
 }
 
-/// One offer per bank, as parallel arrays so that the per-cycle scans over the banks are
-/// short, branch-light loops: the candidate, its kind, its priority and the earliest cycle at
-/// which timing allows it (`u64::MAX` where the bank has no offer).
+/// Stride of a bank group's entries in the calendar of shared ready times (one per kind).
+const SHARED_STRIDE: usize = 8;
+/// Entries of the calendar: every bank group of a channel (at most 16 ranks × 16 groups,
+/// `config::Organisation`'s limits). A fixed power-of-two size lets the scan index it without
+/// bounds checks.
+const CALENDAR_LEN: usize = 16 * 16 * SHARED_STRIDE;
+type Calendar = [u64; CALENDAR_LEN];
+/// Bank commands (ACT, PRE, RD, WR) as next commands: the kinds banks offer.
+const BANK_KINDS: usize = 4;
+
+/// One offer per bank: the candidate, and apart from it, packed for the per-cycle scan over
+/// the banks, its priority, the bank's own ready time for it and where its shared ready time is
+/// in the channel's calendar.
 #[derive(Clone, Debug)]
 struct Offers {
     cand: Vec<Candidate>,
-    /// `Cmd::kind` of the offer, or [`NO_KIND`].
-    kind: Vec<u8>,
-    /// [`scheduler::priority`] of the offer (smaller wins).
-    priority: Vec<u64>,
-    /// Earliest legal cycle, kept current: recomputed when the offer changes and, after each
-    /// command, for offers of a kind that command can delay.
-    ready: Vec<u64>,
-    /// The minimum of `ready` where `min_ok`; kept by [`Offers::refresh`], which scans every
-    /// bank anyway, and by [`Offers::set`] unless it raises the bank that held the minimum.
-    min: u64,
-    min_ok: bool,
+    slots: Vec<OfferSlot>,
 }
 
-/// The kind of a bank without an offer: no command's mask has this bit.
-const NO_KIND: u8 = 7;
-const _: () = assert!(Cmd::KINDS <= NO_KIND as usize);
+#[derive(Clone, Copy, Debug)]
+struct OfferSlot {
+    /// `Engine::bank_ready` for the offer's kind (`u64::MAX` where the bank has no offer). It
+    /// changes only when the bank's offer changes or a command is issued to the bank, both of
+    /// which re-set the offer.
+    local: u64,
+    /// [`scheduler::priority`] of the offer (smaller wins).
+    priority: u64,
+    /// Index of the offer's shared ready time in the calendar (`group × 8 + kind`).
+    shared_at: usize,
+}
+
+impl OfferSlot {
+    const NONE: OfferSlot = OfferSlot {
+        local: u64::MAX,
+        priority: u64::MAX,
+        shared_at: 0,
+    };
+
+    /// The earliest cycle at which the offer is legal (`u64::MAX` if none).
+    #[inline(always)]
+    fn ready(&self, shared: &Calendar) -> u64 {
+        self.local.max(shared[self.shared_at % CALENDAR_LEN])
+    }
+}
+
+/// The result of a scan over the offers at cycle `t`.
+#[derive(Clone, Copy, Debug)]
+struct Pick {
+    /// The ready offer of highest priority: its bank, and whether it is the alternative.
+    best: Option<(usize, bool)>,
+    /// The earliest ready time of any offer or alternative.
+    min_ready: u64,
+}
 
 impl Offers {
     fn new(banks: usize) -> Self {
         Offers {
             cand: vec![Candidate::NONE; banks],
-            kind: vec![NO_KIND; banks],
-            priority: vec![u64::MAX; banks],
-            ready: vec![u64::MAX; banks],
-            min: u64::MAX,
-            min_ok: true,
+            slots: vec![OfferSlot::NONE; banks],
         }
     }
 
     /// Bank `b` offers `c` (or nothing).
     #[inline]
     fn set(&mut self, b: usize, c: Option<Candidate>, sched: SchedulerKind, engine: &Engine) {
-        let old = self.ready[b];
-        let new = match c {
+        self.slots[b] = match c {
             Some(c) => {
+                let k = usize::from(c.kind);
                 self.cand[b] = c;
-                self.kind[b] = c.kind;
-                self.priority[b] = scheduler::priority(sched, &c);
-                engine.earliest_bank(c.kind.into(), b)
+                OfferSlot {
+                    local: engine.bank_ready(k, b),
+                    priority: scheduler::priority(sched, &c),
+                    shared_at: engine.group_index(b) * SHARED_STRIDE + k,
+                }
             }
-            None => {
-                self.kind[b] = NO_KIND;
-                self.priority[b] = u64::MAX;
-                u64::MAX
-            }
+            None => OfferSlot::NONE,
         };
-        self.ready[b] = new;
-        if new <= self.min {
-            self.min = new;
-        } else if old == self.min {
-            self.min_ok = false;
-        }
     }
 
-    /// Recompute the ready times of offers whose kind is in `mask` (bit `1 << kind`), and
-    /// with them the minimum.
+    /// The ready offer of highest priority at `t` (the lowest bank among equals), where an
+    /// offer that cannot issue yields to its bank's alternative (`alts`), if that can; and the
+    /// earliest ready time of all.
     #[inline]
-    fn refresh(&mut self, mask: u8, engine: &Engine) {
+    fn scan(&self, alts: Option<&Offers>, shared: &Calendar, t: u64) -> Pick {
+        let mut best = (u64::MAX, usize::MAX, false);
         let mut min = u64::MAX;
-        for (b, (&k, r)) in self.kind.iter().zip(&mut self.ready).enumerate() {
-            if mask & (1 << k) != 0 {
-                *r = engine.earliest_bank(k.into(), b);
+        match alts {
+            None => {
+                for (b, o) in self.slots.iter().enumerate() {
+                    let r = o.ready(shared);
+                    min = min.min(r);
+                    if r <= t && o.priority < best.0 {
+                        best = (o.priority, b, false);
+                    }
+                }
             }
-            min = min.min(*r);
+            Some(a) => {
+                for (b, (o, oa)) in self.slots.iter().zip(&a.slots).enumerate() {
+                    let r = o.ready(shared);
+                    let ra = oa.ready(shared);
+                    min = min.min(r).min(ra);
+                    let (p, alt) = if r <= t {
+                        (o.priority, false)
+                    } else if ra <= t {
+                        (oa.priority, true)
+                    } else {
+                        continue;
+                    };
+                    if p < best.0 {
+                        best = (p, b, alt);
+                    }
+                }
+            }
         }
-        self.min = min;
-        self.min_ok = true;
-    }
-
-    /// The earliest ready time of any offer (`u64::MAX` if none).
-    #[inline]
-    fn earliest(&mut self) -> u64 {
-        if !self.min_ok {
-            self.min = self.ready.iter().copied().min().unwrap_or(u64::MAX);
-            self.min_ok = true;
+        Pick {
+            best: (best.1 != usize::MAX).then_some((best.1, best.2)),
+            min_ready: min,
         }
-        self.min
     }
 }

@@ -5,8 +5,15 @@
 //! scheduler looks only at the requests of a bank. A read to a line already queued for reading
 //! is *merged*: it occupies a slot but rides on the first read and completes with it; likewise a
 //! write to a queued line. A read to a line with a queued write is *forwarded* (answered from
-//! the write queue). Requests enqueued for a future cycle wait in `pending` until they arrive.
-//! Nothing here allocates after construction.
+//! the write queue). Requests enqueued for a future cycle wait in `pending` until they arrive
+//! (plus the admission delay).
+//!
+//! With per-bank command queues (`command_queue_depth = n > 0`, DRAMsim3's structure) an
+//! admitted request first waits in its kind's *transaction queue* (`staged_reads` /
+//! `staged_writes`, arrival order); [`RequestQueues::transfer`] moves the oldest one whose bank
+//! holds fewer than `n` requests into the bank's lists, freeing its read/write-queue slot. The
+//! bank lists are then the command queues, and only they are scheduled. Nothing here allocates
+//! after construction.
 
 use rtsim_core::MemOp;
 use std::collections::VecDeque;
@@ -39,6 +46,8 @@ pub struct Entry {
     pub act_for: bool,
     /// A PRE was issued for this request (a row conflict).
     pub pre_for: bool,
+    /// Moved into its bank's command queue (no longer holds a read/write-queue slot).
+    pub in_cq: bool,
     /// Head of the list of requests merged into this one.
     pub merged: u32,
     /// Next in the merged list of the request this one is merged into.
@@ -50,6 +59,8 @@ pub struct Entry {
 pub enum Admit {
     /// Queued for scheduling at its bank.
     Queued,
+    /// Waiting for room in its bank's command queue.
+    Staged,
     /// Merged into the queued request in the given slot.
     Merged(u32),
     /// A read answered from a queued write.
@@ -64,6 +75,10 @@ pub struct QueuePolicy {
     pub merge_reads: bool,
     pub merge_writes: bool,
     pub forward_reads: bool,
+    /// Cycles from arrival until the request is admitted (seen by the scheduler).
+    pub admission_delay: u64,
+    /// Per-bank command-queue depth; 0 = no command-queue stage.
+    pub command_queue_depth: u32,
 }
 
 #[derive(Clone, Debug)]
@@ -87,11 +102,19 @@ pub struct RequestQueues {
     pub per_rank: Vec<u32>,
     /// Requests enqueued for a future cycle, sorted by arrival cycle.
     pending: VecDeque<u32>,
+    /// Admitted requests waiting for room in their bank's command queue, oldest first (only
+    /// with command queues).
+    staged_reads: VecDeque<u32>,
+    staged_writes: VecDeque<u32>,
+    /// Requests in command queues.
+    in_cq: u32,
 }
 
 impl RequestQueues {
     pub fn new(policy: QueuePolicy, banks: usize, ranks: usize) -> Self {
-        let cap = (policy.read_capacity + policy.write_capacity) as usize;
+        // Command queues hold requests beyond the read and write queues' capacity.
+        let cap = (policy.read_capacity + policy.write_capacity) as usize
+            + banks * policy.command_queue_depth as usize;
         let blank = Entry {
             id: 0,
             addr: 0,
@@ -106,6 +129,7 @@ impl RequestQueues {
             row: 0,
             act_for: false,
             pre_for: false,
+            in_cq: false,
             merged: NIL,
             next_merged: NIL,
         };
@@ -126,6 +150,9 @@ impl RequestQueues {
                 .collect(),
             per_rank: vec![0; ranks],
             pending: VecDeque::with_capacity(cap),
+            staged_reads: VecDeque::with_capacity(policy.read_capacity as usize),
+            staged_writes: VecDeque::with_capacity(policy.write_capacity as usize),
+            in_cq: 0,
         }
     }
 
@@ -166,32 +193,104 @@ impl RequestQueues {
         }
         // Usually appended at the back; keep the list sorted by (arrival, seq).
         let key = (e.arrival_mem, e.seq);
+        let after = |s: u32| {
+            let p = &self.slab[s as usize];
+            (p.arrival_mem, p.seq) <= key
+        };
+        if self.pending.back().is_none_or(|&s| after(s)) {
+            self.pending.push_back(slot);
+            return;
+        }
         let pos = self
             .pending
             .iter()
-            .rposition(|&s| {
-                let p = &self.slab[s as usize];
-                (p.arrival_mem, p.seq) <= key
-            })
+            .rposition(|&s| after(s))
             .map_or(0, |i| i + 1);
         self.pending.insert(pos, slot);
     }
 
-    /// Arrival cycle of the first pending request.
+    /// The cycle at which the first pending request is admitted (arrival + admission delay).
     #[inline]
     pub fn next_arrival(&self) -> Option<u64> {
         self.pending
             .front()
-            .map(|&s| self.slab[s as usize].arrival_mem)
+            .map(|&s| self.slab[s as usize].arrival_mem + self.policy.admission_delay)
     }
 
-    /// Pop the first pending request if it has arrived by cycle `t`.
+    /// Pop the first pending request if it is admitted by cycle `t`.
     #[inline]
     pub fn pop_arrived(&mut self, t: u64) -> Option<u32> {
         match self.pending.front() {
-            Some(&s) if self.slab[s as usize].arrival_mem <= t => self.pending.pop_front(),
+            Some(&s) if self.slab[s as usize].arrival_mem + self.policy.admission_delay <= t => {
+                self.pending.pop_front()
+            }
             _ => None,
         }
+    }
+
+    /// A queued request of kind `op` at flat bank `b` for line `addr`, in the bank's lists or
+    /// waiting for its command queue.
+    fn find_line(&self, op: MemOp, b: usize, addr: u64) -> Option<u32> {
+        let (list, staged) = match op {
+            MemOp::Read => (&self.reads[b], &self.staged_reads),
+            MemOp::Write => (&self.writes[b], &self.staged_writes),
+        };
+        let same = |&s: &u32| self.slab[s as usize].addr == addr;
+        let found = list.iter().copied().find(same);
+        if found.is_some() || self.policy.command_queue_depth == 0 {
+            return found;
+        }
+        staged
+            .iter()
+            .copied()
+            .find(|&s| self.slab[s as usize].bank as usize == b && same(&s))
+    }
+
+    /// Command queues: move the oldest waiting request of kind `op` whose bank has room into
+    /// its bank's command queue (one per cycle, as DRAMsim3 does). Returns its bank.
+    pub fn transfer(&mut self, op: MemOp) -> Option<usize> {
+        let depth = self.policy.command_queue_depth as usize;
+        let staged = match op {
+            MemOp::Read => &self.staged_reads,
+            MemOp::Write => &self.staged_writes,
+        };
+        let i = staged.iter().position(|&s| {
+            let b = self.slab[s as usize].bank as usize;
+            self.reads[b].len() + self.writes[b].len() < depth
+        })?;
+        let staged = match op {
+            MemOp::Read => &mut self.staged_reads,
+            MemOp::Write => &mut self.staged_writes,
+        };
+        let slot = staged.remove(i).expect("position found");
+        let e = &mut self.slab[slot as usize];
+        e.in_cq = true;
+        let b = e.bank as usize;
+        match op {
+            MemOp::Read => {
+                self.read_slots -= 1;
+                self.reads[b].push(slot);
+            }
+            MemOp::Write => {
+                self.write_slots -= 1;
+                self.writes[b].push(slot);
+            }
+        }
+        self.in_cq += 1;
+        Some(b)
+    }
+
+    /// Could [`RequestQueues::transfer`] move a request of kind `op` now?
+    pub fn can_transfer(&self, op: MemOp) -> bool {
+        let depth = self.policy.command_queue_depth as usize;
+        let staged = match op {
+            MemOp::Read => &self.staged_reads,
+            MemOp::Write => &self.staged_writes,
+        };
+        staged.iter().any(|&s| {
+            let b = self.slab[s as usize].bank as usize;
+            self.reads[b].len() + self.writes[b].len() < depth
+        })
     }
 
     /// The queued requests of `op` at flat bank `b`, oldest first.
@@ -209,23 +308,20 @@ impl RequestQueues {
         let b = e.bank as usize;
         match e.op {
             MemOp::Read => {
-                if self.policy.forward_reads
-                    && self.writes[b]
-                        .iter()
-                        .any(|&w| self.slab[w as usize].addr == e.addr)
-                {
+                if self.policy.forward_reads && self.find_line(MemOp::Write, b, e.addr).is_some() {
                     return Admit::Forwarded;
                 }
                 self.reads_arrived += 1;
                 self.per_rank[e.rank as usize] += 1;
                 if self.policy.merge_reads {
-                    if let Some(&host) = self.reads[b]
-                        .iter()
-                        .find(|&&r| self.slab[r as usize].addr == e.addr)
-                    {
+                    if let Some(host) = self.find_line(MemOp::Read, b, e.addr) {
                         self.attach(host, slot);
                         return Admit::Merged(host);
                     }
+                }
+                if self.policy.command_queue_depth > 0 {
+                    self.staged_reads.push_back(slot);
+                    return Admit::Staged;
                 }
                 self.reads[b].push(slot);
             }
@@ -233,13 +329,14 @@ impl RequestQueues {
                 self.writes_arrived += 1;
                 self.per_rank[e.rank as usize] += 1;
                 if self.policy.merge_writes {
-                    if let Some(&host) = self.writes[b]
-                        .iter()
-                        .find(|&&w| self.slab[w as usize].addr == e.addr)
-                    {
+                    if let Some(host) = self.find_line(MemOp::Write, b, e.addr) {
                         self.attach(host, slot);
                         return Admit::Merged(host);
                     }
+                }
+                if self.policy.command_queue_depth > 0 {
+                    self.staged_writes.push_back(slot);
+                    return Admit::Staged;
                 }
                 self.writes[b].push(slot);
             }
@@ -270,17 +367,24 @@ impl RequestQueues {
         let e = self.slab[slot as usize];
         match e.op {
             MemOp::Read => {
-                self.read_slots -= 1;
+                if !e.in_cq {
+                    self.read_slots -= 1;
+                }
                 if arrived {
                     self.reads_arrived -= 1;
                 }
             }
             MemOp::Write => {
-                self.write_slots -= 1;
+                if !e.in_cq {
+                    self.write_slots -= 1;
+                }
                 if arrived {
                     self.writes_arrived -= 1;
                 }
             }
+        }
+        if e.in_cq {
+            self.in_cq -= 1;
         }
         if arrived {
             self.per_rank[e.rank as usize] -= 1;
@@ -288,6 +392,7 @@ impl RequestQueues {
         let x = &mut self.slab[slot as usize];
         x.merged = NIL;
         x.next_merged = NIL;
+        x.in_cq = false;
         self.free.push(slot);
     }
 
@@ -304,9 +409,9 @@ impl RequestQueues {
         self.pending.len() as u32
     }
 
-    /// Total slots in use.
+    /// Requests held: pending, queued, merged, and in command queues.
     pub fn occupied(&self) -> u32 {
-        self.read_slots + self.write_slots
+        self.read_slots + self.write_slots + self.in_cq
     }
 
     /// Anything pending or queued?

@@ -6,14 +6,17 @@
 //! - open bank, FR-FCFS: the column command of the oldest request hitting the open row; if there
 //!   is none — or `row_hit_cap` hits have been served and the bank's oldest request wants
 //!   another row — a PRE for the oldest request that misses;
-//! - open bank, FCFS: the oldest request's command (column access if it hits, else PRE).
+//! - open bank, FCFS: the oldest request's command (column access if it hits, else PRE);
+//! - USIMM's FCFS: closed bank, ACT for the oldest; open bank, the command of the older of its
+//!   oldest hit and oldest miss, with the other as the *alternative* below — so the first
+//!   issuable command of any request, in arrival order, wins (USIMM's `scheduler-fcfs.c`).
 //!
 //! With `protect_row_hits = false` (USIMM's FR-FCFS) an open bank whose offer is a row hit also
 //! has an *alternative*: the PRE for its oldest missing request, considered when the hit cannot
 //! issue this cycle.
 //!
 //! Among the candidates that are ready this cycle, FR-FCFS takes row hits first, then the
-//! oldest; FCFS takes the oldest.
+//! oldest; FCFS and USIMM's FCFS take the oldest.
 
 use super::queue::{NIL, RequestQueues};
 use crate::config::SchedulerKind;
@@ -39,7 +42,7 @@ pub struct Candidate {
 impl Candidate {
     /// `cmd` for the queued request in `slot`.
     #[inline]
-    fn new(q: &RequestQueues, cmd: Cmd, slot: u32, hit: bool) -> Self {
+    pub fn for_request(q: &RequestQueues, cmd: Cmd, slot: u32, hit: bool) -> Self {
         let e = q.get(slot);
         Candidate {
             cmd,
@@ -80,79 +83,129 @@ impl Default for BankSched {
     }
 }
 
-/// The alternative offer of an open bank whose offer is a row hit: a PRE for the oldest request
-/// that misses (FR-FCFS without row-hit protection), or `None`.
-pub fn bank_alternative(
-    q: &RequestQueues,
-    b: usize,
-    op: MemOp,
-    open_row: u32,
-) -> Option<Candidate> {
-    let list = q.bank_list(op, b);
-    let m = list.iter().copied().find(|&s| q.row(s) != open_row)?;
-    Some(Candidate::new(q, Cmd::Pre, m, false))
-}
-
-/// The candidate of bank `b` when serving `op` requests, with `open_row` open (or CLOSED).
-pub fn bank_candidate(
-    kind: SchedulerKind,
-    row_hit_cap: u32,
-    st: &BankSched,
-    q: &RequestQueues,
-    b: usize,
-    op: MemOp,
-    open_row: u32,
-) -> Option<Candidate> {
-    let list = q.bank_list(op, b);
-    let &first = list.first()?;
-    let col = match op {
+/// The column command serving the request in `slot`.
+#[inline]
+fn column_cmd(q: &RequestQueues, slot: u32) -> Cmd {
+    match q.get(slot).op {
         MemOp::Read => Cmd::Rd,
         MemOp::Write => Cmd::Wr,
+    }
+}
+
+/// The oldest request of `list` hitting `open_row`.
+#[inline]
+fn oldest_hit(q: &RequestQueues, list: &[u32], open_row: u32) -> Option<u32> {
+    list.iter().copied().find(|&s| q.row(s) == open_row)
+}
+
+/// The oldest request of `list` missing `open_row`.
+#[inline]
+fn oldest_miss(q: &RequestQueues, list: &[u32], open_row: u32) -> Option<u32> {
+    list.iter().copied().find(|&s| q.row(s) != open_row)
+}
+
+/// The offer of bank `b` for the requests in `list` (oldest first; reads, writes or both),
+/// with `open_row` open (or CLOSED), and its alternative: the command considered when the
+/// offer cannot issue this cycle (USIMM's FCFS, and FR-FCFS/FCFS without row-hit protection).
+pub fn bank_offers(
+    kind: SchedulerKind,
+    row_hit_cap: u32,
+    protect_row_hits: bool,
+    st: &BankSched,
+    q: &RequestQueues,
+    list: &[u32],
+    open_row: u32,
+) -> (Option<Candidate>, Option<Candidate>) {
+    let Some(&first) = list.first() else {
+        return (None, None);
     };
-    let offer = |cmd, slot, hit| Candidate::new(q, cmd, slot, hit);
+    let offer = |cmd, slot, hit| Some(Candidate::for_request(q, cmd, slot, hit));
     if open_row == CLOSED {
-        let target = if st.pre_target != NIL && list.contains(&st.pre_target) {
+        // USIMM's FCFS: every request of a closed bank wants the same ACT; the oldest gets it.
+        let target = if kind != SchedulerKind::UsimmFcfs
+            && st.pre_target != NIL
+            && list.contains(&st.pre_target)
+        {
             st.pre_target
         } else {
             first
         };
-        return Some(offer(Cmd::Act, target, false));
+        return (offer(Cmd::Act, target, false), None);
     }
-    match kind {
+    // The oldest hit and the oldest miss, each found only when needed: one of the two is the
+    // first request, so a long list of hits (a stream) costs one look.
+    let first_hits = q.row(first) == open_row;
+    let hit = || {
+        if first_hits {
+            Some(first)
+        } else {
+            oldest_hit(q, list, open_row)
+        }
+    };
+    let miss = || {
+        if first_hits {
+            oldest_miss(q, list, open_row)
+        } else {
+            Some(first)
+        }
+    };
+    let pre_for_miss = |m| offer(Cmd::Pre, m, false);
+    let primary = match kind {
         SchedulerKind::Fcfs => {
-            if q.row(first) == open_row {
-                Some(offer(col, first, true))
+            if first_hits {
+                offer(column_cmd(q, first), first, true)
             } else {
-                Some(offer(Cmd::Pre, first, false))
+                pre_for_miss(first)
             }
         }
         SchedulerKind::FrFcfs => {
-            let hit = list.iter().copied().find(|&s| q.row(s) == open_row);
-            let miss = list.iter().copied().find(|&s| q.row(s) != open_row);
-            match (hit, miss) {
-                (Some(_), Some(m)) if m == first && row_hit_cap > 0 && st.streak >= row_hit_cap => {
-                    // Starvation cap: the bank's oldest request wants another row; it gets its
-                    // turn (DRAMsim3's rule, with its 4 column commands = the opening access
-                    // plus a cap of 3 hits).
-                    Some(offer(Cmd::Pre, m, false))
+            if first_hits {
+                offer(column_cmd(q, first), first, true)
+            } else {
+                match hit() {
+                    // Starvation cap: the bank's oldest request (the first, a miss) wants
+                    // another row; it gets its turn (DRAMsim3's rule, with its 4 column commands
+                    // = the opening access plus a cap of 3 hits).
+                    Some(_) if row_hit_cap > 0 && st.streak >= row_hit_cap => pre_for_miss(first),
+                    Some(h) => offer(column_cmd(q, h), h, true),
+                    None => pre_for_miss(first),
                 }
-                (Some(h), _) => Some(offer(col, h, true)),
-                (None, Some(m)) => Some(offer(Cmd::Pre, m, false)),
-                (None, None) => None,
             }
         }
-    }
+        SchedulerKind::UsimmFcfs => {
+            // The older of the oldest hit and the oldest miss first; the other one is the
+            // alternative, so the first issuable command in arrival order wins.
+            return if first_hits {
+                (
+                    offer(column_cmd(q, first), first, true),
+                    miss().and_then(pre_for_miss),
+                )
+            } else {
+                (
+                    pre_for_miss(first),
+                    hit().and_then(|h| offer(column_cmd(q, h), h, true)),
+                )
+            };
+        }
+    };
+    // Without row-hit protection, a bank offering a hit may instead close the row for its
+    // oldest miss when the hit cannot issue (USIMM 1.3's FR-FCFS second pass).
+    let alt = match primary {
+        Some(c) if c.hit && !protect_row_hits => miss().and_then(pre_for_miss),
+        _ => None,
+    };
+    (primary, alt)
 }
 
 /// The priority of `c` under `kind`, smaller first: FR-FCFS orders by (not a hit, age), FCFS
-/// by age. Ages (request sequence numbers) stay below 2^63, so the two FR-FCFS keys pack into
+/// and USIMM's FCFS by age. Ages (request sequence numbers) stay below 2^63, so the two FR-FCFS keys pack into
 /// one word.
 #[inline]
 pub fn priority(kind: SchedulerKind, c: &Candidate) -> u64 {
     debug_assert!(c.seq < 1 << 63);
     match kind {
         SchedulerKind::FrFcfs => (u64::from(!c.hit) << 63) | c.seq,
-        SchedulerKind::Fcfs => c.seq,
+        SchedulerKind::Fcfs | SchedulerKind::UsimmFcfs => c.seq,
     }
 }
 

@@ -12,8 +12,10 @@
 //! (REF, PDE, PDX) appear only with rank-wide scopes.
 //!
 //! Sources: JESD79-3F (DDR3) and JESD79-4B (DDR4) command timing tables, JESD212 (GDDR5: tRCDWR,
-//! t32AW, tCCDL), and USIMM's derived constraints for the data bus (read-to-write turnaround
-//! `CL + burst + tRTRS − CWL`, rank switch `burst + tRTRS`).
+//! t32AW, tCCDL, tPPD), and USIMM's derived constraints for the data bus (read-to-write
+//! turnaround `CL + burst + tRTRS − CWL`, rank switch `burst + tRTRS`). The standards define
+//! column spacing only within a rank; between ranks the rank switch is a system parameter
+//! (tRTRS, and tRTRS_W2W between writes, see `config::Timing`).
 
 use serde::Serialize;
 
@@ -133,6 +135,10 @@ pub enum Param {
     CCD,
     CCDL,
     RTRS,
+    /// Rank switch between two writes (default tRTRS).
+    RTRSW2W,
+    /// GDDR5 precharge to precharge.
+    PPD,
     RFC,
     XP,
     CKE,
@@ -288,6 +294,14 @@ pub const RULES: &[Rule] = &[
         &[],
         "RD after WR, same rank: CWL + burst + tWTR",
     ),
+    r(
+        Pre,
+        Pre,
+        Rank,
+        &[PPD],
+        &[],
+        "PRE to PRE, same rank: tPPD (GDDR5, JESD212; 0 elsewhere)",
+    ),
     r(Act, Ref, Rank, &[RC], &[], "REF after ACT, same rank: tRC"),
     r(Pre, Ref, Rank, &[RP], &[], "REF after PRE, same rank: tRP"),
     r(
@@ -386,9 +400,9 @@ pub const RULES: &[Rule] = &[
         Wr,
         Wr,
         OtherRanks,
-        &[Burst, RTRS],
+        &[Burst, RTRSW2W],
         &[],
-        "WR to WR, other rank: burst + tRTRS",
+        "WR to WR, other rank: burst + tRTRS_W2W (= tRTRS unless set)",
     ),
     r(
         Wr,

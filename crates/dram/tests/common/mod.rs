@@ -5,7 +5,9 @@
 use rtsim_core::{MemCompletion, MemOp, MemRequest, MemoryPort};
 use rtsim_dram::config::preset_config;
 use rtsim_dram::mapping::Location;
-use rtsim_dram::{Dram, DramConfig, Requester};
+use rtsim_dram::trace::{Pattern, Synthetic};
+use rtsim_dram::{Dram, DramConfig, DriveOptions, Report, Requester, drive};
+use std::convert::Infallible;
 
 /// A preset with checking mode on (every issued command re-validated).
 pub fn config(preset: &str) -> DramConfig {
@@ -71,4 +73,27 @@ pub fn single(d: &mut Dram, r: MemRequest) -> MemCompletion {
 pub fn assert_legal(d: &Dram) {
     let v = d.violations();
     assert!(v.is_empty(), "checker found violations:\n{}", v.join("\n"));
+}
+
+/// Drive `n` synthetic 64-byte requests (`pattern`, read probability `read_ratio`, `interval`
+/// requester cycles apart, addresses below `capacity`, seeded) through `d` to completion, and
+/// report up to the last completion.
+pub fn run_synthetic(
+    d: &mut Dram,
+    pattern: Pattern,
+    n: u64,
+    read_ratio: f64,
+    interval: u64,
+    capacity: u64,
+    seed: u64,
+) -> Report {
+    let t = Synthetic::new(pattern, n, read_ratio, interval, 64, capacity, seed);
+    let s = drive(
+        d,
+        t.map(Ok::<_, Infallible>),
+        DriveOptions::default(),
+        |_| {},
+    )
+    .unwrap();
+    d.report(s.end_cycle)
 }
