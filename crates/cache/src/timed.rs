@@ -169,6 +169,8 @@ struct Node {
     wb_cap: u32,
     write_back: bool,
     blocked: VecDeque<Op>,
+    /// Empty: the storage `blocked` takes while its accesses are offered again.
+    retrying: VecDeque<Op>,
     retry_pending: bool,
     mem_tag: u32,
 }
@@ -283,6 +285,7 @@ impl<M: MemoryPort> Hierarchy<M> {
                     wb_cap: c.write_buffer,
                     write_back: c.write_policy == WritePolicy::WriteBack,
                     blocked: VecDeque::new(),
+                    retrying: VecDeque::new(),
                     retry_pending: false,
                     mem_tag,
                 }
@@ -503,10 +506,14 @@ impl<M: MemoryPort> Hierarchy<M> {
             Ev::MemSend { node, addr, op } => self.mem_send(t, node, addr, op),
             Ev::Retry { node } => {
                 self.nodes[node].retry_pending = false;
-                let ops = std::mem::take(&mut self.nodes[node].blocked);
-                for op in ops {
+                // The accesses are offered again in order; those refused again queue up anew.
+                // The two queues trade their storage so that neither grows from empty.
+                let n = &mut self.nodes[node];
+                let mut ops = std::mem::replace(&mut n.blocked, std::mem::take(&mut n.retrying));
+                while let Some(op) = ops.pop_front() {
                     self.inner_access(t, node, op, false)?;
                 }
+                self.nodes[node].retrying = ops;
                 Ok(())
             }
         }
