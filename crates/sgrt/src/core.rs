@@ -441,6 +441,15 @@ impl Core {
         (m != 0).then(|| m.trailing_zeros() as usize)
     }
 
+    /// The next due TRV stage from unit `*from` on, as (unit, TRV, stage); moves `*from` past it.
+    #[inline]
+    fn next_due_stage(&self, from: &mut usize, all: bool) -> Option<(usize, usize, usize)> {
+        let u = self.next_due(*from, self.ist_unit(), all)?;
+        *from = u + 1;
+        let (k, i) = self.unit_trv[u];
+        Some((u, k as usize, i as usize))
+    }
+
     /// One cycle of the T&I unit: finished rays leave, pipelines take rays, dispatch hands one
     /// on; only units whose wake has come (every unit with `all`, the reference engine).
     pub fn tick<M: MemoryPort>(
@@ -548,10 +557,7 @@ impl Core {
     fn exits(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
         let ist = self.ist_unit();
         let mut from = 0;
-        while let Some(u) = self.next_due(from, ist, all) {
-            from = u + 1;
-            let (k, i) = self.unit_trv[u];
-            let (k, i) = (k as usize, i as usize);
+        while let Some((_, k, i)) = self.next_due_stage(&mut from, all) {
             while let Some(slot) = self.trvs[k].stages[i].pipe.head(t) {
                 if !self.route(t, slot, false, env)? {
                     self.trvs[k].stages[i].pipe.block(t);
@@ -672,10 +678,7 @@ impl Core {
     ) -> Result<(), SgrtError> {
         let u = self.ist_unit();
         let mut from = 0;
-        while let Some(v) = self.next_due(from, u, all) {
-            from = v + 1;
-            let (k, i) = self.unit_trv[v];
-            let (k, i) = (k as usize, i as usize);
+        while let Some((v, k, i)) = self.next_due_stage(&mut from, all) {
             self.enter_trv(t, k, i, env, hier)?;
             let trv = &self.trvs[k];
             let boxes = (self.org == Organisation::Sptrv).then_some(trv.aabb_free);
