@@ -56,7 +56,7 @@ use crate::topology::{Parent, Topology};
 use rtsim_config::ConfigError;
 use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
 use rtsim_sim::{Component, EventError, EventQueue};
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::VecDeque;
 
 /// One access by a requester.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -155,6 +155,36 @@ enum Ev {
     Retry { node: usize },
 }
 
+/// The line each MSHR is fetching (`NONE`: the MSHR is free), by MSHR: a cache has a few
+/// dozen MSHRs at most, so a scan finds a line sooner than a map would.
+#[derive(Clone, Debug)]
+struct InFlight {
+    lines: Vec<u64>,
+}
+
+impl InFlight {
+    const NONE: u64 = u64::MAX;
+    fn new(mshrs: usize) -> Self {
+        InFlight {
+            lines: vec![Self::NONE; mshrs],
+        }
+    }
+    /// The MSHR fetching `line`.
+    #[inline]
+    fn get(&self, line: u64) -> Option<usize> {
+        self.lines.iter().position(|&l| l == line)
+    }
+    fn insert(&mut self, line: u64, mshr: usize) {
+        debug_assert!(line != Self::NONE && self.get(line).is_none());
+        self.lines[mshr] = line;
+    }
+    fn remove(&mut self, line: u64) -> Option<usize> {
+        let i = self.get(line)?;
+        self.lines[i] = Self::NONE;
+        Some(i)
+    }
+}
+
 #[derive(Debug)]
 struct Node {
     cache: Cache,
@@ -165,11 +195,13 @@ struct Node {
     bank_free: Vec<u64>,
     mshrs: Vec<Mshr>,
     free_mshrs: Vec<usize>,
-    in_flight: BTreeMap<u64, usize>,
+    in_flight: InFlight,
     wb_used: u32,
     wb_cap: u32,
     write_back: bool,
     blocked: VecDeque<Op>,
+    /// Empty: the storage `blocked` takes while its accesses are offered again.
+    retrying: VecDeque<Op>,
     retry_pending: bool,
     mem_tag: u32,
 }
@@ -205,7 +237,7 @@ impl Node {
     }
     fn merge(&mut self, addr: u64, dirty: bool, target: Option<Target>) -> bool {
         let line = self.line(addr);
-        let Some(&i) = self.in_flight.get(&line) else {
+        let Some(i) = self.in_flight.get(line) else {
             return false;
         };
         let m = &mut self.mshrs[i];
@@ -283,11 +315,12 @@ impl<M: MemoryPort> Hierarchy<M> {
                     bank_free: vec![0; c.banks as usize],
                     mshrs: vec![Mshr::default(); c.mshrs as usize],
                     free_mshrs: (0..c.mshrs as usize).rev().collect(),
-                    in_flight: BTreeMap::new(),
+                    in_flight: InFlight::new(c.mshrs as usize),
                     wb_used: 0,
                     wb_cap: c.write_buffer,
                     write_back: c.write_policy == WritePolicy::WriteBack,
                     blocked: VecDeque::new(),
+                    retrying: VecDeque::new(),
                     retry_pending: false,
                     mem_tag,
                 }
@@ -422,7 +455,7 @@ impl<M: MemoryPort> Hierarchy<M> {
                 ready: t + lat,
                 hit: true,
             }
-        } else if node.in_flight.contains_key(&node.line(r.addr)) {
+        } else if node.in_flight.get(node.line(r.addr)).is_some() {
             node.cache.lookup(r.addr, r.op);
             node.merge(r.addr, write, Some(target));
             Outcome::Pending
@@ -519,10 +552,14 @@ impl<M: MemoryPort> Hierarchy<M> {
             Ev::MemSend { node, addr, op } => self.mem_send(t, node, addr, op),
             Ev::Retry { node } => {
                 self.nodes[node].retry_pending = false;
-                let ops = std::mem::take(&mut self.nodes[node].blocked);
-                for op in ops {
+                // The accesses are offered again in order; those refused again queue up anew.
+                // The two queues trade their storage so that neither grows from empty.
+                let n = &mut self.nodes[node];
+                let mut ops = std::mem::replace(&mut n.blocked, std::mem::take(&mut n.retrying));
+                while let Some(op) = ops.pop_front() {
                     self.inner_access(t, node, op, false)?;
                 }
+                self.nodes[node].retrying = ops;
                 Ok(())
             }
         }
@@ -578,7 +615,7 @@ impl<M: MemoryPort> Hierarchy<M> {
             }
         } else {
             let target = (!op.write).then_some(Target::Child(op.child));
-            if node.in_flight.contains_key(&node.line(op.addr)) {
+            if node.in_flight.get(node.line(op.addr)).is_some() {
                 node.cache.lookup(op.addr, mem_op);
                 node.merge(op.addr, op.write, target);
             } else if node.can_allocate() {
@@ -602,7 +639,7 @@ impl<M: MemoryPort> Hierarchy<M> {
     fn fill(&mut self, t: u64, n: usize, addr: u64) -> Result<(), HierarchyError> {
         let node = &mut self.nodes[n];
         let line = node.line(addr);
-        let Some(i) = node.in_flight.remove(&line) else {
+        let Some(i) = node.in_flight.remove(line) else {
             // Every fill answers an MSHR of this node; anything else is a bug.
             unreachable!("fill of line {line:#x} at cache {n} with no MSHR");
         };

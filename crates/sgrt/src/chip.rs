@@ -289,11 +289,15 @@ impl<'a, M: MemoryPort> Sgrt<'a, M> {
     /// The next cycle at which anything can happen (`None`: nothing will).
     pub fn next_event(&self) -> Option<u64> {
         let now = self.now.unwrap_or(0);
-        let mut next = self.hier.next_event().unwrap_or(u64::MAX);
+        let mut next = u64::MAX;
         for core in &self.cores {
             next = next
                 .min(core.next_event(now).unwrap_or(u64::MAX))
                 .min(core.shader_wake);
+        }
+        // The memory path is asked only if it could come first (asking it costs the DRAM's).
+        if next > now + 1 {
+            next = next.min(self.hier.next_event().unwrap_or(u64::MAX));
         }
         (next != u64::MAX).then_some(next.max(now + 1))
     }

@@ -265,6 +265,12 @@ pub(crate) struct Core {
     wake: Vec<u64>,
     /// The least of `wake`.
     min_wake: u64,
+    /// During a tick at `now`: bit `u` set iff `wake[u] <= now` (kept exact as wakes change
+    /// within the tick), so the tick visits the due units without scanning the others.
+    due: u64,
+    now: u64,
+    /// Per unit: its TRV and stage (the IST and dispatch: unused).
+    unit_trv: Vec<(u8, u8)>,
     /// The same for the shader of this core (the chip owns the shader).
     pub shader_wake: u64,
     /// Stages per TRV.
@@ -351,6 +357,8 @@ impl Core {
         let i = &c.ist;
         let per_trv = trvs[0].stages.len();
         let units = trvs.len() * per_trv + 2;
+        // One bit per unit in `due` (at most 16 TRVs × 3 stages + 2).
+        debug_assert!(units <= 64);
         Ok(Core {
             id,
             org: c.organisation,
@@ -378,6 +386,11 @@ impl Core {
             in_flight: 0,
             wake: vec![0; units],
             min_wake: 0,
+            due: 0,
+            now: 0,
+            unit_trv: (0..units)
+                .map(|u| ((u / per_trv) as u8, (u % per_trv) as u8))
+                .collect(),
             shader_wake: 0,
             per_trv,
             stats: CoreStats::default(),
@@ -403,7 +416,38 @@ impl Core {
         if self.wake[u] > t {
             self.wake[u] = t;
             self.min_wake = self.min_wake.min(t);
+            if t <= self.now {
+                self.due |= 1 << u;
+            }
         }
+    }
+
+    /// Unit `u`'s wake becomes `w` (within a tick).
+    #[inline]
+    fn set_wake(&mut self, u: usize, w: u64) {
+        self.wake[u] = w;
+        if w <= self.now {
+            self.due |= 1 << u;
+        } else {
+            self.due &= !(1 << u);
+        }
+    }
+
+    /// The first unit from `from` on that is due (every unit with `all`), before `end`.
+    #[inline]
+    fn next_due(&self, from: usize, end: usize, all: bool) -> Option<usize> {
+        let live = if all { u64::MAX } else { self.due };
+        let m = live & (u64::MAX << from) & !(u64::MAX << end);
+        (m != 0).then(|| m.trailing_zeros() as usize)
+    }
+
+    /// The next due TRV stage from unit `*from` on, as (unit, TRV, stage); moves `*from` past it.
+    #[inline]
+    fn next_due_stage(&self, from: &mut usize, all: bool) -> Option<(usize, usize, usize)> {
+        let u = self.next_due(*from, self.ist_unit(), all)?;
+        *from = u + 1;
+        let (k, i) = self.unit_trv[u];
+        Some((u, k as usize, i as usize))
     }
 
     /// One cycle of the T&I unit: finished rays leave, pipelines take rays, dispatch hands one
@@ -418,6 +462,12 @@ impl Core {
         if !all && self.min_wake > t {
             return Ok(());
         }
+        self.now = t;
+        self.due = self
+            .wake
+            .iter()
+            .enumerate()
+            .fold(0, |m, (u, &w)| m | (u64::from(w <= t) << u));
         self.exits(t, all, env)?;
         self.entries(t, all, env, hier)?;
         self.dispatch(t, all, env)?;
@@ -505,23 +555,19 @@ impl Core {
     /// Every due pipeline's finished rays leave (TRVs in order, then the IST); `all` visits
     /// every unit (the reference engine).
     fn exits(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
-        for k in 0..self.trvs.len() {
-            for i in 0..self.per_trv {
-                if !all && self.wake[self.unit(k, i)] > t {
-                    continue;
+        let ist = self.ist_unit();
+        let mut from = 0;
+        while let Some((_, k, i)) = self.next_due_stage(&mut from, all) {
+            while let Some(slot) = self.trvs[k].stages[i].pipe.head(t) {
+                if !self.route(t, slot, false, env)? {
+                    self.trvs[k].stages[i].pipe.block(t);
+                    break;
                 }
-                while let Some(slot) = self.trvs[k].stages[i].pipe.head(t) {
-                    if !self.route(t, slot, false, env)? {
-                        self.trvs[k].stages[i].pipe.block(t);
-                        break;
-                    }
-                    self.trvs[k].stages[i].pipe.leave(t);
-                    self.trvs[k].leave_pipes(t);
-                }
+                self.trvs[k].stages[i].pipe.leave(t);
+                self.trvs[k].leave_pipes(t);
             }
         }
-        let u = self.ist_unit();
-        if all || self.wake[u] <= t {
+        if self.next_due(ist, ist + 1, all).is_some() {
             while let Some(slot) = self.ist.stage.pipe.head(t) {
                 if !self.route(t, slot, true, env)? {
                     self.ist.stage.pipe.block(t);
@@ -630,22 +676,20 @@ impl Core {
         env: &Env<'_>,
         hier: &mut Hierarchy<M>,
     ) -> Result<(), SgrtError> {
-        for k in 0..self.trvs.len() {
-            for i in 0..self.per_trv {
-                let u = self.unit(k, i);
-                if all || self.wake[u] <= t {
-                    self.enter_trv(t, k, i, env, hier)?;
-                    let trv = &self.trvs[k];
-                    let boxes = (self.org == Organisation::Sptrv).then_some(trv.aabb_free);
-                    self.wake[u] = self.stage_wake(&trv.stages[i], None, &trv.rau, boxes, t, env);
-                }
-            }
-        }
         let u = self.ist_unit();
-        if all || self.wake[u] <= t {
+        let mut from = 0;
+        while let Some((v, k, i)) = self.next_due_stage(&mut from, all) {
+            self.enter_trv(t, k, i, env, hier)?;
+            let trv = &self.trvs[k];
+            let boxes = (self.org == Organisation::Sptrv).then_some(trv.aabb_free);
+            let w = self.stage_wake(&trv.stages[i], None, &trv.rau, boxes, t, env);
+            self.set_wake(v, w);
+        }
+        if self.next_due(u, u + 1, all).is_some() {
             self.enter_ist(t, env, hier)?;
             let ist = &self.ist;
-            self.wake[u] = self.stage_wake(&ist.stage, Some(&ist.looped), &ist.rau, None, t, env);
+            let w = self.stage_wake(&ist.stage, Some(&ist.looped), &ist.rau, None, t, env);
+            self.set_wake(u, w);
         }
         Ok(())
     }
@@ -906,11 +950,12 @@ impl Core {
     /// short stack and room in the queue of its first step; at most one ray per cycle.
     fn dispatch(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
         let rd = self.rd_unit();
-        if !all && self.wake[rd] > t {
+        if self.next_due(rd, rd + 1, all).is_none() {
             return Ok(());
         }
         self.dispatch_one(t, env)?;
-        self.wake[rd] = self.rd_wake();
+        let w = self.rd_wake();
+        self.set_wake(rd, w);
         Ok(())
     }
 
