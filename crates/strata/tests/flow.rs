@@ -1,0 +1,228 @@
+//! The functional ray flow against the functional tracer: every pixel equal, every ray's
+//! counters equal, nothing lost or duplicated, whatever the stream size and policy.
+
+use rtsim_strata::config::{Policy, StrataConfig, StreamConfig};
+use rtsim_strata::flow::{self, FlowChip, FlowInput, FlowOutput};
+use rtsim_strata::world::{self, World};
+use rtsim_trace::{FrameStats, Integrator, PixelResult, WorkloadKind, WorkloadParams};
+use std::path::PathBuf;
+
+/// The shared scene directory: `$RTSIM_SCENE_DIR`, else `../shared/scenes` beside the
+/// repository.
+fn scene_dir() -> Option<PathBuf> {
+    if let Some(d) = std::env::var_os("RTSIM_SCENE_DIR").filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(d));
+    }
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes");
+    d.is_dir().then_some(d)
+}
+
+fn load(name: &str, w: u32, h: u32) -> Option<World> {
+    let dir = scene_dir();
+    if name != "cornell" && dir.is_none() {
+        eprintln!("skipping {name}: no scene directory (set RTSIM_SCENE_DIR)");
+        return None;
+    }
+    Some(
+        World::load(
+            name,
+            dir.as_deref(),
+            w,
+            h,
+            &world::memory_config(16 << 10),
+            &world::trace_config(),
+        )
+        .unwrap(),
+    )
+}
+
+fn params(w: &World, spp: u32) -> WorkloadParams {
+    WorkloadParams {
+        kind: WorkloadKind::Path,
+        width: w.width,
+        height: w.height,
+        spp,
+        max_depth: 5,
+        specular_bounces: 2,
+        ao_radius: 0.3,
+        seed: 7,
+    }
+}
+
+fn functional(w: &World, p: &WorkloadParams) -> (Vec<PixelResult>, FrameStats) {
+    let integ = Integrator::new(&w.scene, &w.tracer, p.clone());
+    let mut stats = FrameStats::default();
+    let out = (0..w.width * w.height)
+        .map(|px| integ.pixel(px % w.width, px / w.width, &mut stats))
+        .collect();
+    (out, stats)
+}
+
+fn strata(w: &World, p: &WorkloadParams, cfg: &StrataConfig, chip: FlowChip) -> FlowOutput {
+    let integ = Integrator::new(&w.scene, &w.tracer, p.clone());
+    let pixels: Vec<u32> = (0..w.width * w.height).collect();
+    flow::run(
+        cfg,
+        chip,
+        FlowInput {
+            integ: &integ,
+            tracer: &w.tracer,
+            image: &w.image,
+            pixels: &pixels,
+            image_pixels: pixels.len(),
+        },
+    )
+    .unwrap()
+}
+
+fn chip(tms: u32, tps: u32) -> FlowChip {
+    FlowChip {
+        tms,
+        tps_per_tm: tps,
+        line_bytes: 64,
+    }
+}
+
+fn assert_same(out: &FlowOutput, reference: &(Vec<PixelResult>, FrameStats)) {
+    assert_eq!(out.pixels.len(), reference.0.len());
+    for (i, (a, b)) in out.pixels.iter().zip(&reference.0).enumerate() {
+        assert_eq!(
+            a.color.to_array().map(f32::to_bits),
+            b.color.to_array().map(f32::to_bits),
+            "pixel {i}"
+        );
+        assert_eq!(a.nodes_visited, b.nodes_visited, "pixel {i}");
+    }
+    assert_eq!(out.rays, reference.1, "per-kind ray counters");
+}
+
+/// What every run must satisfy, whatever the scene and settings.
+fn assert_invariants(out: &FlowOutput, pixels: u64) {
+    let s = &out.stats;
+    assert_eq!(s.pixels_done, pixels);
+    assert_eq!(s.rays, out.rays.total().rays);
+    // Every push was popped: the memory ends empty, no ray lost or left behind.
+    assert_eq!(s.stream.pushes, s.stream.pops);
+    assert_eq!(
+        s.stream.pushes,
+        s.pushes_root + s.pushes_crossing + s.pushes_to_triangles + s.pushes_from_triangles
+    );
+    // One root push per ray (its first), one-for-one.
+    assert_eq!(s.pushes_root, s.rays);
+    assert_eq!(s.stream.overflows, 0);
+    // Every node-treelet crossing of the traversal is one push.
+    assert_eq!(s.pushes_crossing, out.rays.total().treelet_crossings);
+    // Trips to triangle treelets come back, except for rays that end there (any-hit exit).
+    assert!(s.pushes_from_triangles <= s.pushes_to_triangles);
+    assert!(s.stream.peak_rays <= s.layout.unwrap().slots);
+    assert_eq!(s.wrong_kind_steps, 0, "node and triangle work never mix");
+    assert_eq!(s.path_state_reads, s.rays);
+    assert_eq!(s.path_state_writes, s.rays);
+    assert_eq!(s.framebuffer_writes, pixels);
+}
+
+#[test]
+fn cornell_equals_the_functional_tracer() {
+    let w = load("cornell", 24, 24).unwrap();
+    let p = params(&w, 1);
+    let reference = functional(&w, &p);
+    let out = strata(&w, &p, &StrataConfig::default(), chip(4, 8));
+    assert_same(&out, &reference);
+    assert_invariants(&out, 24 * 24);
+    // All 576 paths fit the default 4 MB at once.
+    assert_eq!(out.stats.initial_paths, 576);
+}
+
+#[test]
+fn a_tiny_stream_memory_replaces_rays_one_for_one() {
+    let w = load("cornell", 16, 16).unwrap();
+    let p = params(&w, 2);
+    let reference = functional(&w, &p);
+    let cfg = StrataConfig {
+        stream: StreamConfig {
+            bytes: 1024,
+            ..StreamConfig::default()
+        },
+        ..StrataConfig::default()
+    };
+    let out = strata(&w, &p, &cfg, chip(2, 4));
+    let slots = out.stats.layout.unwrap().slots;
+    assert!(slots < 32, "{slots} slots in 1 KB");
+    assert_eq!(out.stats.initial_paths, slots as u64);
+    assert_eq!(out.stats.stream.peak_rays, slots);
+    assert_same(&out, &reference);
+    assert_invariants(&out, 256);
+}
+
+#[test]
+fn policies_and_sharing_change_the_schedule_not_the_image() {
+    let w = load("cornell", 16, 16).unwrap();
+    let p = params(&w, 1);
+    let reference = functional(&w, &p);
+    let mut switches = Vec::new();
+    for (policy, share) in [
+        (Policy::MostRays, 1),
+        (Policy::RoundRobin, 1),
+        (Policy::MostRays, 0),
+        (Policy::RoundRobin, 2),
+    ] {
+        let cfg = StrataConfig {
+            policy,
+            tms_per_buffer: share,
+            ..StrataConfig::default()
+        };
+        let out = strata(&w, &p, &cfg, chip(3, 4));
+        assert_same(&out, &reference);
+        assert_invariants(&out, 256);
+        switches.push(out.stats.treelet_switches);
+    }
+    assert!(switches.iter().any(|&s| s != switches[0]), "{switches:?}");
+}
+
+#[test]
+fn the_flow_is_deterministic() {
+    let w = load("cornell", 12, 12).unwrap();
+    let p = params(&w, 1);
+    let a = strata(&w, &p, &StrataConfig::default(), chip(2, 4));
+    let b = strata(&w, &p, &StrataConfig::default(), chip(2, 4));
+    assert_eq!(a.stats, b.stats);
+    assert_eq!(a.rays, b.rays);
+}
+
+#[test]
+fn sibenik_equals_the_functional_tracer() {
+    let Some(w) = load("sibenik", 16, 12) else {
+        return;
+    };
+    let t = w.treelets().unwrap();
+    // Every treelet within its budget (the image checks alignment when it is built).
+    assert!(t.treelets.iter().all(|i| i.bytes <= 16 << 10));
+    let p = params(&w, 1);
+    let reference = functional(&w, &p);
+    let out = strata(&w, &p, &StrataConfig::default(), chip(8, 8));
+    assert_same(&out, &reference);
+    assert_invariants(&out, 16 * 12);
+    let s = &out.stats;
+    assert!(s.pushes_crossing > 0 && s.pushes_to_triangles > 0);
+    // A tenure's own lines fit the L1: a treelet is at most 16 KB from a line boundary.
+    assert!(
+        s.tenure_lines_max <= (16 << 10) / 64,
+        "{}",
+        s.tenure_lines_max
+    );
+    // Outside it, it reads only the child pairs at its frontier (see docs/STRATA.md).
+    assert_eq!(s.foreign_other_reads, 0);
+    assert!(s.foreign_pair_reads > 0);
+    // And with a stream memory just big enough for Sibenik's head table and a few rays.
+    let small = StrataConfig {
+        stream: StreamConfig {
+            bytes: 8 << 10,
+            ..StreamConfig::default()
+        },
+        ..StrataConfig::default()
+    };
+    let out = strata(&w, &p, &small, chip(8, 8));
+    assert!(out.stats.layout.unwrap().slots < 192);
+    assert_same(&out, &reference);
+    assert_invariants(&out, 16 * 12);
+}
