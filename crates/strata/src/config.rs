@@ -35,8 +35,10 @@ pub const STREAM_BYTES_MAX: u64 = 1 << 30;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Policy {
-    /// The buffer holding the most rays (ties: the lowest treelet id). Issue 10 §2's default:
-    /// the longest stay on one treelet, so the most L1 hits per treelet load.
+    /// The buffer holding the most unclaimed rays: its count minus one round's worth
+    /// (`tps_per_tm` rays) for every TM already on it; ties to the lowest treelet id. Issue
+    /// 10 §2's default: the longest stay on one treelet, so the most L1 hits per treelet
+    /// load, without piling every TM onto the one fullest buffer.
     #[default]
     MostRays,
     /// The next non-empty buffer after the one last taken, in treelet-id order, wrapping.
@@ -112,9 +114,11 @@ pub struct StrataConfig {
     pub l2_bytes: u64,
     /// How a TM picks a treelet buffer: `most-rays` (default, issue 10 §2) or `round-robin`.
     pub policy: Policy,
-    /// Most TMs that may drain one buffer at once, 0..=4096; 0 = no limit. Default 1
-    /// (assumed: the paper keeps a treelet in the L1 of the TM working on it, §3.1, and says
-    /// nothing of sharing; one TM per buffer loads each treelet into one L1 at a time).
+    /// Most TMs that may drain one buffer at once, 0..=4096; 0 = no limit. Default 0
+    /// (assumed: the paper says nothing of sharing, but every ray starts in the root treelet
+    /// and most return to it, so one TM per buffer serialises the chip on the root: on
+    /// Sibenik at 320 × 320 the functional flow needs 24× more rounds with 1 than with no
+    /// limit, `docs/STRATA.md`). Each TM on a buffer loads the treelet into its own L1.
     pub tms_per_buffer: u32,
 }
 
@@ -125,7 +129,7 @@ impl Default for StrataConfig {
             stream: StreamConfig::default(),
             l2_bytes: L2_BYTES_DEFAULT,
             policy: Policy::MostRays,
-            tms_per_buffer: 1,
+            tms_per_buffer: 0,
         }
     }
 }

@@ -15,10 +15,12 @@
 //!   started and its first ray pushed onto the root treelet's buffer (treelet 0).
 //! - **Rounds.** The chip works in rounds. In each round every TM, in index order, keeps its
 //!   treelet while its buffer holds rays; otherwise it releases it and picks a buffer by the
-//!   policy (`most-rays`: the fullest, ties to the lowest id; `round-robin`: the next
-//!   non-empty id after the last pick), among buffers held by fewer than `tms_per_buffer`
-//!   TMs. Then each of its TPs pops one ray (fewer if the buffer runs dry: those TPs idle) and
-//!   runs it until it leaves the treelet.
+//!   policy (`most-rays`: the most unclaimed rays, i.e. the count minus `tps_per_tm` for
+//!   every TM already on it, ties to the lowest id; `round-robin`: the next non-empty id after
+//!   the last pick), among buffers held by fewer than `tms_per_buffer` TMs (0: any number).
+//!   Then each of its TPs pops one ray (fewer if the buffer runs dry: those TPs idle) and
+//!   runs it until it leaves the treelet. A TM switches treelets only when its buffer is
+//!   empty at the start of a round.
 //! - **Leaving a treelet.** A ray leaves when its traversal crosses into another node treelet
 //!   (`Step::Treelet`, down or up), when it reaches a leaf (it goes to the buffer of the
 //!   triangle treelet holding the leaf's triangles: node and triangle treelets are separate,
@@ -409,18 +411,34 @@ impl Flow<'_> {
         self.treelets.treelets[b as usize].kind
     }
 
-    /// A buffer for a TM by the policy, if any may be taken.
+    /// A buffer for a TM by the policy, if any may be taken. `most-rays` ranks buffers by
+    /// their unclaimed rays: the count minus one round's worth (`tps_per_tm`) for every TM
+    /// already on it (with one TM per buffer, simply the count).
     fn pick(&mut self) -> Option<u32> {
         let limit = self.cfg.tms_per_buffer;
-        let free = |b: u32, holders: &[u32]| limit == 0 || holders[b as usize] < limit;
+        let holders = &self.holders;
+        let free = |b: u32| limit == 0 || holders[b as usize] < limit;
         match self.cfg.policy {
-            Policy::MostRays => self
-                .ready
-                .by_count
-                .iter()
-                .rev()
-                .map(|&(_, Reverse(b))| b)
-                .find(|&b| free(b, &self.holders)),
+            Policy::MostRays => {
+                let tps = self.chip.tps_per_tm as u64;
+                let mut best: Option<(u64, u32)> = None;
+                for &(count, Reverse(b)) in self.ready.by_count.iter().rev() {
+                    // No buffer further down can beat the best: unclaimed ≤ count.
+                    if best.is_some_and(|(score, _)| (count as u64) < score) {
+                        break;
+                    }
+                    let unclaimed = (count as u64).saturating_sub(holders[b as usize] as u64 * tps);
+                    if unclaimed > 0
+                        && free(b)
+                        && best.is_none_or(|(score, id)| {
+                            unclaimed > score || (unclaimed == score && b < id)
+                        })
+                    {
+                        best = Some((unclaimed, b));
+                    }
+                }
+                best.map(|(_, b)| b)
+            }
             Policy::RoundRobin => {
                 let start = self.rr_cursor.map_or(0, |c| c + 1);
                 let b = self
@@ -429,7 +447,7 @@ impl Flow<'_> {
                     .range(start..)
                     .chain(self.ready.by_id.range(..start))
                     .copied()
-                    .find(|&b| free(b, &self.holders))?;
+                    .find(|&b| free(b))?;
                 self.rr_cursor = Some(b);
                 Some(b)
             }
