@@ -24,6 +24,7 @@
 
 pub mod config;
 pub mod flow;
+pub mod pipeline;
 pub mod stream;
 pub mod world;
 
