@@ -19,10 +19,10 @@ fn main() {
     let arg = |i: usize, d: &str| a.get(i).cloned().unwrap_or_else(|| d.to_string());
     let name = arg(0, "sibenik");
     let (w, h): (u32, u32) = (arg(1, "64").parse().unwrap(), arg(2, "64").parse().unwrap());
-    let chip = FlowChip {
+    let trax = rtsim_trax::TraxConfig {
         tms: arg(3, "128").parse().unwrap(),
         tps_per_tm: arg(4, "32").parse().unwrap(),
-        line_bytes: 64,
+        ..rtsim_trax::TraxConfig::default()
     };
     let cfg = StrataConfig {
         stream: StreamConfig {
@@ -36,6 +36,7 @@ fn main() {
         tms_per_buffer: arg(7, "0").parse().unwrap(),
         ..StrataConfig::default()
     };
+    let chip = FlowChip::of(&trax, &cfg, 1);
     let dir = std::env::var_os("RTSIM_SCENE_DIR")
         .map(PathBuf::from)
         .or_else(|| Some(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes")));
@@ -64,7 +65,7 @@ fn main() {
     let t0 = std::time::Instant::now();
     let out = flow::run(
         &cfg,
-        chip,
+        &chip,
         FlowInput {
             integ: &integ,
             tracer: &wd.tracer,
@@ -157,6 +158,16 @@ fn main() {
         s.stream_access_nj,
         s.path_state_reads,
         s.path_state_writes
+    );
+    println!(
+        "caches (record reads, one access per line): L1 {} accesses {} misses ({:.2} % hits), \
+         L2 {} accesses {} misses, DRAM line reads {}",
+        s.l1_accesses,
+        s.l1_misses,
+        100.0 * (1.0 - s.l1_misses as f64 / s.l1_accesses as f64),
+        s.l2_accesses,
+        s.l2_misses,
+        s.dram_line_reads
     );
     println!("host seconds {secs:.2}");
 }

@@ -181,6 +181,16 @@ impl Validate for StrataConfig {
 }
 
 impl StrataConfig {
+    /// The TRaX chip with STRaTA's changes: with streaming, the L2 is `l2_bytes` (the rest of
+    /// the L2 became the stream memory, §5.1).
+    pub fn chip(&self, trax: &rtsim_trax::TraxConfig) -> rtsim_trax::TraxConfig {
+        let mut c = trax.clone();
+        if self.streaming {
+            c.l2.size_bytes = self.l2_bytes;
+        }
+        c
+    }
+
     /// Checks against the rest of the run: streaming needs the `bit-stack` traversal (its ray
     /// state fits the 48-byte record; STRaTA §3.2), the treelet layout with parent pointers,
     /// and treelets no larger than the L1 (§3.1: "we assign treelets to be exactly the size of

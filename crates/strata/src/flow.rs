@@ -45,6 +45,8 @@
 use crate::config::{Policy, StrataConfig};
 use crate::stream::{StreamError, StreamLayout, StreamMemory, StreamStats};
 use rtsim_bvh::{MemoryImage, TreeletKind, Treelets};
+use rtsim_cache::{CacheConfig, FunctionalHierarchy};
+use rtsim_core::MemOp;
 use rtsim_core::Vec3;
 use rtsim_trace::step::bitstack::{RecordError, State};
 use rtsim_trace::step::{Access, Step};
@@ -69,21 +71,37 @@ pub struct FlowInput<'a> {
 }
 
 /// The chip the rays flow through.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FlowChip {
     pub tms: u32,
     pub tps_per_tm: u32,
     /// L1 line size, for footprints.
     pub line_bytes: u32,
+    /// The cache tree the traversal's record reads go through, untimed (`None`: not
+    /// modelled): one L1 per TM, in TM order, and the L2s behind them.
+    pub caches: Option<CacheConfig>,
 }
 
 impl FlowChip {
-    /// The TM and TP counts and L1 line of a TRaX chip.
-    pub fn of(chip: &rtsim_trax::TraxConfig) -> FlowChip {
+    /// `tms` × `tps_per_tm` with 64-byte lines and no caches.
+    pub fn new(tms: u32, tps_per_tm: u32) -> FlowChip {
         FlowChip {
-            tms: chip.tms,
-            tps_per_tm: chip.tps_per_tm,
-            line_bytes: chip.l1.line_bytes,
+            tms,
+            tps_per_tm,
+            line_bytes: 64,
+            caches: None,
+        }
+    }
+
+    /// The TRaX chip `chip` with STRaTA's changes (`StrataConfig::chip`: the smaller L2),
+    /// its caches modelled; `seed` seeds random replacement, if any.
+    pub fn of(chip: &rtsim_trax::TraxConfig, strata: &StrataConfig, seed: u64) -> FlowChip {
+        let c = strata.chip(chip);
+        FlowChip {
+            tms: c.tms,
+            tps_per_tm: c.tps_per_tm,
+            line_bytes: c.l1.line_bytes,
+            caches: Some(c.cache_config(seed)),
         }
     }
 }
@@ -104,6 +122,8 @@ pub enum FlowError {
     Record(#[from] RecordError),
     #[error("the chip has no TPs (arch.trax.tms or arch.trax.tps_per_tm is 0)")]
     NoTps,
+    #[error(transparent)]
+    Config(#[from] rtsim_config::ConfigError),
 }
 
 /// Counts of the flow (numerators and denominators kept; ratios when reporting).
@@ -160,6 +180,14 @@ pub struct FlowStats {
     pub path_state_reads: u64,
     pub path_state_writes: u64,
     pub framebuffer_writes: u64,
+    /// With caches: the traversal's record reads, one access per line a record fetch
+    /// touches, through each TM's L1 (summed over TMs), and what reached the L2 and left it
+    /// for DRAM (line reads). Shading, path-state and framebuffer traffic are not included.
+    pub l1_accesses: u64,
+    pub l1_misses: u64,
+    pub l2_accesses: u64,
+    pub l2_misses: u64,
+    pub dram_line_reads: u64,
 }
 
 impl FlowStats {
@@ -214,7 +242,9 @@ impl Ready {
 struct Flow<'a> {
     input: FlowInput<'a>,
     cfg: &'a StrataConfig,
-    chip: FlowChip,
+    tms: usize,
+    tps: u32,
+    line_bytes: u32,
     treelets: &'a Treelets,
     /// Leaf node of every triangle slot, and whether the slot is its leaf's last.
     leaf_of_slot: Vec<u32>,
@@ -234,12 +264,13 @@ struct Flow<'a> {
     tenure_lines: Vec<Vec<u64>>,
     tenure_foreign: Vec<Vec<u64>>,
     tenure_rays: Vec<u64>,
+    caches: Option<FunctionalHierarchy>,
 }
 
 /// Render `input` with STRaTA's ray flow on `chip` (see the module docs).
 pub fn run(
     cfg: &StrataConfig,
-    chip: FlowChip,
+    chip: &FlowChip,
     input: FlowInput<'_>,
 ) -> Result<FlowOutput, FlowError> {
     let treelets = input.image.treelets().ok_or(FlowError::NoTreelets)?;
@@ -263,18 +294,23 @@ pub fn run(
     }
     let buffers = treelets.len() as u32;
     let stream = StreamMemory::new(&cfg.stream, buffers)?;
+    let caches = match &chip.caches {
+        Some(c) => Some(FunctionalHierarchy::new(c)?),
+        None => None,
+    };
+    let (tms, line_bytes) = (chip.tms as usize, chip.line_bytes);
+    let tps = chip.tps_per_tm;
     let mut f = Flow {
         input,
         cfg,
-        chip,
         treelets,
         leaf_of_slot,
         last_of_leaf,
         stream,
         ready: Ready::default(),
         holders: vec![0; buffers as usize],
-        tm_treelet: vec![None; chip.tms as usize],
-        tm_kind: vec![None; chip.tms as usize],
+        tm_treelet: vec![None; tms],
+        tm_kind: vec![None; tms],
         rr_cursor: None,
         paths: Vec::new(),
         next_pixel: 0,
@@ -284,14 +320,34 @@ pub fn run(
             stream_access_nj: cfg.stream.access_nj(),
             ..FlowStats::default()
         },
-        tenure_lines: vec![Vec::new(); chip.tms as usize],
-        tenure_foreign: vec![Vec::new(); chip.tms as usize],
-        tenure_rays: vec![0; chip.tms as usize],
+        tenure_lines: vec![Vec::new(); tms],
+        tenure_foreign: vec![Vec::new(); tms],
+        tenure_rays: vec![0; tms],
+        caches,
+        tms,
+        tps,
+        line_bytes,
     };
     f.stats.layout = Some(*f.stream.layout());
     f.fill()?;
     f.rounds()?;
     f.stats.stream = f.stream.stats().clone();
+    if let Some(h) = &f.caches {
+        let top = h.topology();
+        for &l1 in top.leaves() {
+            let st = h.stats(l1);
+            f.stats.l1_accesses += st.accesses();
+            f.stats.l1_misses += st.misses();
+        }
+        for n in 0..h.caches().len() {
+            if !top.leaves().contains(&n) {
+                let st = h.stats(n);
+                f.stats.l2_accesses += st.accesses();
+                f.stats.l2_misses += st.misses();
+            }
+        }
+        f.stats.dram_line_reads = h.memory.reads;
+    }
     Ok(FlowOutput {
         pixels: f.out,
         rays: f.rays,
@@ -420,7 +476,7 @@ impl Flow<'_> {
         let free = |b: u32| limit == 0 || holders[b as usize] < limit;
         match self.cfg.policy {
             Policy::MostRays => {
-                let tps = self.chip.tps_per_tm as u64;
+                let tps = self.tps as u64;
                 let mut best: Option<(u64, u32)> = None;
                 for &(count, Reverse(b)) in self.ready.by_count.iter().rev() {
                     // No buffer further down can beat the best: unclaimed ≤ count.
@@ -478,11 +534,11 @@ impl Flow<'_> {
 
     /// Run rounds until every ray has finished.
     fn rounds(&mut self) -> Result<(), FlowError> {
-        let tps = self.chip.tps_per_tm as usize;
+        let tps = self.tps as usize;
         let mut batch = Vec::with_capacity(tps);
         while !self.stream.is_empty() {
             self.stats.rounds += 1;
-            for tm in 0..self.chip.tms as usize {
+            for tm in 0..self.tms {
                 if let Some(b) = self.tm_treelet[tm]
                     && self.stream.count(b) == 0
                 {
@@ -520,7 +576,7 @@ impl Flow<'_> {
                 }
             }
         }
-        for tm in 0..self.chip.tms as usize {
+        for tm in 0..self.tms {
             self.end_tenure(tm);
         }
         Ok(())
@@ -545,8 +601,13 @@ impl Flow<'_> {
             }
             &mut self.tenure_foreign[tm]
         };
-        if let Some(span) = access.lines(self.input.image, self.chip.line_bytes) {
+        if let Some(span) = access.lines(self.input.image, self.line_bytes) {
             lines.extend(span.iter());
+            if let Some(h) = &mut self.caches {
+                for line in span.iter() {
+                    h.access(tm, line, MemOp::Read);
+                }
+            }
         }
     }
 

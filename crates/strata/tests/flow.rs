@@ -58,7 +58,7 @@ fn functional(w: &World, p: &WorkloadParams) -> (Vec<PixelResult>, FrameStats) {
     (out, stats)
 }
 
-fn strata(w: &World, p: &WorkloadParams, cfg: &StrataConfig, chip: FlowChip) -> FlowOutput {
+fn strata(w: &World, p: &WorkloadParams, cfg: &StrataConfig, chip: &FlowChip) -> FlowOutput {
     let integ = Integrator::new(&w.scene, &w.tracer, p.clone());
     let pixels: Vec<u32> = (0..w.width * w.height).collect();
     flow::run(
@@ -76,11 +76,7 @@ fn strata(w: &World, p: &WorkloadParams, cfg: &StrataConfig, chip: FlowChip) -> 
 }
 
 fn chip(tms: u32, tps: u32) -> FlowChip {
-    FlowChip {
-        tms,
-        tps_per_tm: tps,
-        line_bytes: 64,
-    }
+    FlowChip::new(tms, tps)
 }
 
 fn assert_same(out: &FlowOutput, reference: &(Vec<PixelResult>, FrameStats)) {
@@ -126,7 +122,7 @@ fn cornell_equals_the_functional_tracer() {
     let w = load("cornell", 24, 24).unwrap();
     let p = params(&w, 1);
     let reference = functional(&w, &p);
-    let out = strata(&w, &p, &StrataConfig::default(), chip(4, 8));
+    let out = strata(&w, &p, &StrataConfig::default(), &chip(4, 8));
     assert_same(&out, &reference);
     assert_invariants(&out, 24 * 24);
     // All 576 paths fit the default 4 MB at once.
@@ -145,7 +141,7 @@ fn a_tiny_stream_memory_replaces_rays_one_for_one() {
         },
         ..StrataConfig::default()
     };
-    let out = strata(&w, &p, &cfg, chip(2, 4));
+    let out = strata(&w, &p, &cfg, &chip(2, 4));
     let slots = out.stats.layout.unwrap().slots;
     assert!(slots < 32, "{slots} slots in 1 KB");
     assert_eq!(out.stats.initial_paths, slots as u64);
@@ -171,7 +167,7 @@ fn policies_and_sharing_change_the_schedule_not_the_image() {
             tms_per_buffer: share,
             ..StrataConfig::default()
         };
-        let out = strata(&w, &p, &cfg, chip(3, 4));
+        let out = strata(&w, &p, &cfg, &chip(3, 4));
         assert_same(&out, &reference);
         assert_invariants(&out, 256);
         switches.push(out.stats.treelet_switches);
@@ -183,8 +179,8 @@ fn policies_and_sharing_change_the_schedule_not_the_image() {
 fn the_flow_is_deterministic() {
     let w = load("cornell", 12, 12).unwrap();
     let p = params(&w, 1);
-    let a = strata(&w, &p, &StrataConfig::default(), chip(2, 4));
-    let b = strata(&w, &p, &StrataConfig::default(), chip(2, 4));
+    let a = strata(&w, &p, &StrataConfig::default(), &chip(2, 4));
+    let b = strata(&w, &p, &StrataConfig::default(), &chip(2, 4));
     assert_eq!(a.stats, b.stats);
     assert_eq!(a.rays, b.rays);
 }
@@ -199,7 +195,7 @@ fn sibenik_equals_the_functional_tracer() {
     assert!(t.treelets.iter().all(|i| i.bytes <= 16 << 10));
     let p = params(&w, 1);
     let reference = functional(&w, &p);
-    let out = strata(&w, &p, &StrataConfig::default(), chip(8, 8));
+    let out = strata(&w, &p, &StrataConfig::default(), &chip(8, 8));
     assert_same(&out, &reference);
     assert_invariants(&out, 16 * 12);
     let s = &out.stats;
@@ -221,8 +217,38 @@ fn sibenik_equals_the_functional_tracer() {
         },
         ..StrataConfig::default()
     };
-    let out = strata(&w, &p, &small, chip(8, 8));
+    let out = strata(&w, &p, &small, &chip(8, 8));
     assert!(out.stats.layout.unwrap().slots < 192);
     assert_same(&out, &reference);
     assert_invariants(&out, 16 * 12);
+}
+
+#[test]
+fn record_reads_go_through_the_l1s_and_the_small_l2() {
+    let w = load("cornell", 16, 16).unwrap();
+    let p = params(&w, 1);
+    let cfg = StrataConfig::default();
+    let trax = rtsim_trax::TraxConfig {
+        tms: 4,
+        tps_per_tm: 8,
+        ..rtsim_trax::TraxConfig::default()
+    };
+    let fc = FlowChip::of(&trax, &cfg, 1);
+    // STRaTA's L2 is the 512 KB beside the stream memory (§5.1).
+    assert_eq!(fc.caches.as_ref().unwrap().l2.size_bytes, 512 << 10);
+    let out = strata(&w, &p, &cfg, &fc);
+    assert_same(&out, &functional(&w, &p));
+    let s = &out.stats;
+    // Every line a tenure touched was one L1 access or more; misses reach the L2.
+    assert!(s.l1_accesses >= s.tenure_lines + s.tenure_foreign_lines);
+    assert!(s.l1_misses > 0 && s.l1_misses < s.l1_accesses);
+    assert_eq!(s.l2_accesses, s.l1_misses);
+    assert_eq!(s.dram_line_reads, s.l2_misses);
+    // The Cornell box's few treelets fit the 512 KB L2: DRAM sees each line once at most.
+    let lines = (w.image.span().1 - w.image.span().0) / 64 + 1;
+    assert!(
+        s.dram_line_reads <= lines,
+        "{} > {lines}",
+        s.dram_line_reads
+    );
 }
