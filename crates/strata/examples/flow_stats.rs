@@ -9,7 +9,7 @@
 //! `most-rays`, no limit of TMs per buffer.
 
 use rtsim_strata::config::{Policy, StrataConfig, StreamConfig};
-use rtsim_strata::flow::{self, FlowChip, FlowInput};
+use rtsim_strata::flow::{self, FlowChip, Frame};
 use rtsim_strata::world::{self, World};
 use rtsim_trace::{FrameStats, Integrator, WorkloadKind, WorkloadParams};
 use std::path::PathBuf;
@@ -66,7 +66,7 @@ fn main() {
     let out = flow::run(
         &cfg,
         &chip,
-        FlowInput {
+        Frame {
             integ: &integ,
             tracer: &wd.tracer,
             image: &wd.image,

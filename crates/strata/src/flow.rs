@@ -44,31 +44,23 @@
 
 use crate::config::{Policy, StrataConfig};
 use crate::stream::{StreamError, StreamLayout, StreamMemory, StreamStats};
-use rtsim_bvh::{MemoryImage, TreeletKind, Treelets};
+use rtsim_bvh::{TreeletKind, Treelets};
 use rtsim_cache::{CacheConfig, FunctionalHierarchy};
 use rtsim_core::MemOp;
 use rtsim_core::Vec3;
 use rtsim_trace::step::bitstack::{RecordError, State};
 use rtsim_trace::step::{Access, Step};
 use rtsim_trace::{
-    FrameStats, Integrator, Next, PathState, PixelResult, RayCounters, RayJob, Resumed,
-    TraceResult, Tracer, TraversalState,
+    FrameStats, Next, PathState, PixelResult, RayCounters, RayJob, Resumed, TraceResult,
+    TraversalState,
 };
 use serde::Serialize;
 use std::cmp::Reverse;
 use std::collections::BTreeSet;
 
-/// What to render.
-#[derive(Clone, Copy, Debug)]
-pub struct FlowInput<'a> {
-    pub integ: &'a Integrator<'a>,
-    pub tracer: &'a Tracer,
-    pub image: &'a MemoryImage,
-    /// The pixels to render (row-major indices), started in this order.
-    pub pixels: &'a [u32],
-    /// Pixels of the whole image (width × height).
-    pub image_pixels: usize,
-}
+/// What to render: the TRaX chip's frame description (the pixels are started in their
+/// order).
+pub use rtsim_trax::Frame;
 
 /// The chip the rays flow through.
 #[derive(Clone, Debug, PartialEq)]
@@ -240,7 +232,7 @@ impl Ready {
 }
 
 struct Flow<'a> {
-    input: FlowInput<'a>,
+    input: Frame<'a>,
     cfg: &'a StrataConfig,
     tms: usize,
     tps: u32,
@@ -268,11 +260,7 @@ struct Flow<'a> {
 }
 
 /// Render `input` with STRaTA's ray flow on `chip` (see the module docs).
-pub fn run(
-    cfg: &StrataConfig,
-    chip: &FlowChip,
-    input: FlowInput<'_>,
-) -> Result<FlowOutput, FlowError> {
+pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<FlowOutput, FlowError> {
     let treelets = input.image.treelets().ok_or(FlowError::NoTreelets)?;
     if input.tracer.traversal() != rtsim_trace::Traversal::BitStack {
         return Err(FlowError::NotBitStack);

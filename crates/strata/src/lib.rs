@@ -29,6 +29,6 @@ pub mod stream;
 pub mod world;
 
 pub use config::{Policy, StrataConfig, StreamConfig};
-pub use flow::{FlowChip, FlowError, FlowInput, FlowOutput, FlowStats};
+pub use flow::{FlowChip, FlowError, FlowOutput, FlowStats, Frame};
 pub use stream::{StreamLayout, StreamMemory, StreamStats};
 pub use world::World;

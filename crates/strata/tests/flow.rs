@@ -2,7 +2,7 @@
 //! counters equal, nothing lost or duplicated, whatever the stream size and policy.
 
 use rtsim_strata::config::{Policy, StrataConfig, StreamConfig};
-use rtsim_strata::flow::{self, FlowChip, FlowInput, FlowOutput};
+use rtsim_strata::flow::{self, FlowChip, FlowOutput, Frame};
 use rtsim_strata::world::{self, World};
 use rtsim_trace::{FrameStats, Integrator, PixelResult, WorkloadKind, WorkloadParams};
 use std::path::PathBuf;
@@ -64,7 +64,7 @@ fn strata(w: &World, p: &WorkloadParams, cfg: &StrataConfig, chip: &FlowChip) ->
     flow::run(
         cfg,
         chip,
-        FlowInput {
+        Frame {
             integ: &integ,
             tracer: &w.tracer,
             image: &w.image,
@@ -127,6 +127,15 @@ fn cornell_equals_the_functional_tracer() {
     assert_invariants(&out, 24 * 24);
     // All 576 paths fit the default 4 MB at once.
     assert_eq!(out.stats.initial_paths, 576);
+    // Each push and pop is one access at Table 2's 4 MB energy.
+    let s = &out.stats;
+    assert_eq!(s.stream_access_nj, 0.901);
+    let j = (s.stream.pushes + s.stream.pops) as f64 * 0.901e-9;
+    assert!((s.stream_energy_j() - j).abs() <= 1e-12 * j);
+    assert_eq!(
+        s.stream.bank_accesses.iter().sum::<u64>(),
+        s.stream.pushes + s.stream.pops
+    );
 }
 
 #[test]
