@@ -169,5 +169,20 @@ fn main() {
         s.l2_misses,
         s.dram_line_reads
     );
+    println!(
+        "fetches per ray: traversal {:.1} scalar, {:.1} fused ({:.1} %); stream {:.2}; shading {:.1}",
+        s.fetches_traversal_scalar as f64 / rays,
+        s.fetches_traversal_fused as f64 / rays,
+        100.0 * s.fetches_traversal_fused as f64 / s.fetches_traversal_scalar as f64,
+        s.fetches_stream as f64 / rays,
+        s.fetches_shading as f64 / rays
+    );
+    let all = |t: u64| t + s.fetches_stream + s.fetches_shading;
+    println!(
+        "all fetches: {} scalar, {} fused ({:.1} %)",
+        all(s.fetches_traversal_scalar),
+        all(s.fetches_traversal_fused),
+        100.0 * all(s.fetches_traversal_fused) as f64 / all(s.fetches_traversal_scalar) as f64
+    );
     println!("host seconds {secs:.2}");
 }

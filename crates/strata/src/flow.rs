@@ -43,11 +43,14 @@
 //! the parent's treelet: see `docs/STRATA.md`).
 
 use crate::config::{Policy, StrataConfig};
+use crate::pipeline;
 use crate::stream::{StreamError, StreamLayout, StreamMemory, StreamStats};
 use rtsim_bvh::{TreeletKind, Treelets};
 use rtsim_cache::{CacheConfig, FunctionalHierarchy};
 use rtsim_core::MemOp;
 use rtsim_core::Vec3;
+use rtsim_trace::Traversal;
+use rtsim_trace::ops;
 use rtsim_trace::step::bitstack::{RecordError, State};
 use rtsim_trace::step::{Access, Step};
 use rtsim_trace::{
@@ -180,6 +183,14 @@ pub struct FlowStats {
     pub l2_accesses: u64,
     pub l2_misses: u64,
     pub dram_line_reads: u64,
+    /// Instruction fetches, one instruction per operation (`rtsim_trace::ops`): the traversal
+    /// steps as ordinary instructions, and with the fused pipelines (`pipeline::fused_fetches`);
+    /// one intrinsic per stream push or pop (assumed); the shading transitions (the same with
+    /// or without pipelines, §3.3: "the final stage shades the ray without reconfiguring").
+    pub fetches_traversal_scalar: u64,
+    pub fetches_traversal_fused: u64,
+    pub fetches_stream: u64,
+    pub fetches_shading: u64,
 }
 
 impl FlowStats {
@@ -262,7 +273,7 @@ struct Flow<'a> {
 /// Render `input` with STRaTA's ray flow on `chip` (see the module docs).
 pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<FlowOutput, FlowError> {
     let treelets = input.image.treelets().ok_or(FlowError::NoTreelets)?;
-    if input.tracer.traversal() != rtsim_trace::Traversal::BitStack {
+    if input.tracer.traversal() != Traversal::BitStack {
         return Err(FlowError::NotBitStack);
     }
     if chip.tms == 0 || chip.tps_per_tm == 0 {
@@ -320,6 +331,7 @@ pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<Flow
     f.fill()?;
     f.rounds()?;
     f.stats.stream = f.stream.stats().clone();
+    f.stats.fetches_stream = f.stats.stream.accesses();
     if let Some(h) = &f.caches {
         let top = h.topology();
         for &l1 in top.leaves() {
@@ -402,6 +414,7 @@ impl Flow<'_> {
     /// its pixel and start the next one (retiring the slot when none is left).
     fn advance(&mut self, id: usize, mut r: Resumed) -> Result<(), FlowError> {
         loop {
+            self.stats.fetches_shading += ops::shading(&r.shading).total() as u64;
             if r.shading.framebuffer.is_some() {
                 self.stats.framebuffer_writes += 1;
             }
@@ -613,6 +626,11 @@ impl Flow<'_> {
                 tracer.step(&mut ts, &mut p.counters)
             };
             self.stats.steps += 1;
+            let scalar =
+                ops::step(Traversal::BitStack, tracer.triangle_test(), &step).total() as u64;
+            self.stats.fetches_traversal_scalar += scalar;
+            self.stats.fetches_traversal_fused +=
+                pipeline::fused_fetches(&step).map_or(scalar, u64::from);
             let is_tri = matches!(step, Step::Triangle { .. });
             if !matches!(step, Step::Done(_)) && is_tri != on_triangles {
                 self.stats.wrong_kind_steps += 1;

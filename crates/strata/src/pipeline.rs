@@ -185,14 +185,67 @@ pub fn child_pair(both_hit: bool) -> FusedBlock {
         name: "child_pair (fused)",
         insts,
         // Two slab tests' arithmetic; their loads are the input intrinsics above.
-        pipeline_ops: {
-            let one = OpMix {
-                load: 0,
-                ..ops::BOX_TEST
-            };
-            one + one
-        },
+        pipeline_ops: box_ops() + box_ops(),
     }
+}
+
+/// One box's inputs and its test: 6 input loads, the fused test, a branch on its flag.
+fn one_box(insts: &mut Vec<FusedInst>) {
+    for _ in 0..6 {
+        insts.push(inst(Op::LoadInput, 1, 0, "box word → input latch [node]"));
+    }
+    insts.push(inst(
+        Op::BoxTest,
+        8,
+        2,
+        "box test: org, inv, tmin, thit → hit, tnear",
+    ));
+    insts.push(inst(Op::Base(Class::Branch), 1, 0, "branch on the hit"));
+}
+
+/// The box arithmetic of one slab test (its loads are the input intrinsics).
+fn box_ops() -> OpMix {
+    OpMix {
+        load: 0,
+        ..ops::BOX_TEST
+    }
+}
+
+/// The fused `Step::RootBox`: the root's box through the box pipeline, one branch.
+pub fn root_box() -> FusedBlock {
+    let mut insts = Vec::new();
+    one_box(&mut insts);
+    FusedBlock {
+        name: "root_box (fused)",
+        insts,
+        pipeline_ops: box_ops(),
+    }
+}
+
+/// The fused `Step::SiblingRetest` (`bit-stack`): the sibling's index (one bitwise), its box
+/// through the box pipeline, one branch.
+pub fn sibling_retest() -> FusedBlock {
+    let mut insts = vec![inst(Op::Base(Class::Bitwise), 1, 1, "sibling ← node ^ 3 …")];
+    one_box(&mut insts);
+    FusedBlock {
+        name: "sibling_retest (fused)",
+        insts,
+        pipeline_ops: box_ops(),
+    }
+}
+
+/// Instruction fetches of a traversal step with fused pipelines (`None`: the step uses no
+/// pipeline and runs as ordinary instructions, `ops::step`). A triangle step includes the
+/// leaf loop's tail (slot increment, loop compare, branch), as `ops::step` does.
+pub fn fused_fetches(step: &rtsim_trace::Step) -> Option<u32> {
+    use rtsim_trace::Step;
+    Some(match *step {
+        Step::RootBox { .. } => root_box().fetches(),
+        Step::ChildPair { hit, .. } => child_pair(hit[0] && hit[1]).fetches(),
+        Step::SiblingRetest { .. } => sibling_retest().fetches(),
+        Step::Triangle { exit, .. } => triangle(exit).fetches() + 3,
+        _ => return None,
+    })
 }
 
 /// The fused `Step::Triangle` (Plücker) ending at `exit` (`plucker_exit`, `HIT` = 0): the 9
@@ -314,6 +367,34 @@ mod tests {
         let (fr, fw) = f.register_accesses();
         assert!(f.fetches() * 3 < n, "{} vs {n}", f.fetches());
         assert!(2 * (fr + fw) < r + w, "{} vs {}", fr + fw, r + w);
+    }
+
+    #[test]
+    fn fused_single_boxes_match_the_hand_count_and_ops() {
+        use rtsim_trace::{Step, Traversal, TriangleTest};
+        // Root: 6 input loads (6 r) + test (8 r, 2 w) + br (1 r).
+        let r = root_box();
+        assert_eq!((r.fetches(), r.register_accesses()), (8, (15, 2)));
+        // Sibling re-test: + the sibling index (1 r, 1 w).
+        let s = sibling_retest();
+        assert_eq!((s.fetches(), s.register_accesses()), (9, (16, 3)));
+        // Outside the pipeline, each fused step runs what ops::step counts besides the
+        // arithmetic the pipeline took: scalar fetches − pipeline ops = fused − fused tests.
+        let bs = |st: &Step| ops::step(Traversal::BitStack, TriangleTest::Plucker, st).total();
+        let root = Step::RootBox { hit: true };
+        assert_eq!(bs(&root) - box_ops().total(), r.fetches() - 1);
+        let sib = Step::SiblingRetest { node: 3, hit: true };
+        assert_eq!(bs(&sib) - box_ops().total(), s.fetches() - 1);
+        for both in [true, false] {
+            let pair = Step::ChildPair {
+                left: 1,
+                hit: [true, both],
+            };
+            let f = child_pair(both);
+            assert_eq!(bs(&pair) - f.pipeline_ops.total(), f.fetches() - 2);
+            assert_eq!(fused_fetches(&pair), Some(f.fetches()));
+        }
+        assert_eq!(fused_fetches(&Step::Parent { node: 3, parent: 1 }), None);
     }
 
     #[test]

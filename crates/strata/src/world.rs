@@ -6,7 +6,7 @@
 use rtsim_bvh::{BvhConfig, ImageExtras, Layout, MemoryImage, MemoryLayoutConfig, Treelets};
 use rtsim_scene::{Scene, SceneRequest, load_scene};
 use rtsim_trace::step::bitstack::MAX_LEVELS;
-use rtsim_trace::{TraceConfig, Tracer, Traversal};
+use rtsim_trace::{TraceConfig, Tracer, Traversal, TriangleTest};
 use std::path::Path;
 
 /// A scene, its treelet memory image and its `bit-stack` tracer.
@@ -39,10 +39,12 @@ pub fn memory_config(treelet_bytes: u64) -> MemoryLayoutConfig {
     }
 }
 
-/// The tracer settings STRaTA runs: the `bit-stack` traversal (§3.2), nearest child first.
+/// The tracer settings STRaTA runs: the `bit-stack` traversal (§3.2), nearest child first,
+/// and the Plücker triangle test of its triangle pipeline (§3.3).
 pub fn trace_config() -> TraceConfig {
     TraceConfig {
         traversal: Traversal::BitStack,
+        triangle_test: TriangleTest::Plucker,
         ..TraceConfig::default()
     }
 }

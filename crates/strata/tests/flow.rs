@@ -115,6 +115,10 @@ fn assert_invariants(out: &FlowOutput, pixels: u64) {
     assert_eq!(s.path_state_reads, s.rays);
     assert_eq!(s.path_state_writes, s.rays);
     assert_eq!(s.framebuffer_writes, pixels);
+    // The fused pipelines replace box and triangle arithmetic by single tests.
+    assert!(s.fetches_traversal_fused < s.fetches_traversal_scalar);
+    assert_eq!(s.fetches_stream, s.stream.pushes + s.stream.pops);
+    assert!(s.fetches_shading > 0);
 }
 
 #[test]
