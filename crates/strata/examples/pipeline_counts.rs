@@ -43,6 +43,12 @@ fn main() {
         "fused child pair, one or none",
         fused(&pipeline::child_pair(false)),
     );
+    row("TRaX `root_box`", base(&p, p.root_box));
+    row("fused root box", fused(&pipeline::root_box()));
+    row(
+        "fused sibling re-test (`bit-stack`)",
+        fused(&pipeline::sibling_retest()),
+    );
     row("TRaX `triangle` (Möller–Trumbore), hit", base(&p, p.tri));
     row(
         "fused Plücker, miss",
