@@ -117,7 +117,7 @@ pub struct StrataConfig {
     /// Most TMs that may drain one buffer at once, 0..=4096; 0 = no limit. Default 0
     /// (assumed: the paper says nothing of sharing, but every ray starts in the root treelet
     /// and most return to it, so one TM per buffer serialises the chip on the root: on
-    /// Sibenik at 320 × 320 the functional flow needs 24× more rounds with 1 than with no
+    /// Sibenik at 320 × 320 the functional flow needs 23× more rounds with 1 than with no
     /// limit, `docs/STRATA.md`). Each TM on a buffer loads the treelet into its own L1.
     pub tms_per_buffer: u32,
 }
