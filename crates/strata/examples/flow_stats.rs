@@ -160,14 +160,17 @@ fn main() {
         s.path_state_writes
     );
     println!(
-        "caches (record reads, one access per line): L1 {} accesses {} misses ({:.2} % hits), \
-         L2 {} accesses {} misses, DRAM line reads {}",
+        "caches (one access per line; shading reads {} writes {}): L1 {} accesses {} misses \
+         ({:.2} % hits), L2 {} accesses {} misses, DRAM line reads {} writes {}",
+        s.shading_line_reads,
+        s.shading_line_writes,
         s.l1_accesses,
         s.l1_misses,
         100.0 * (1.0 - s.l1_misses as f64 / s.l1_accesses as f64),
         s.l2_accesses,
         s.l2_misses,
-        s.dram_line_reads
+        s.dram_line_reads,
+        s.dram_line_writes
     );
     println!(
         "fetches per ray: traversal {:.1} scalar, {:.1} fused ({:.1} %); stream {:.2}; shading {:.1}",

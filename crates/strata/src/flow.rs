@@ -175,14 +175,20 @@ pub struct FlowStats {
     pub path_state_reads: u64,
     pub path_state_writes: u64,
     pub framebuffer_writes: u64,
-    /// With caches: the traversal's record reads, one access per line a record fetch
-    /// touches, through each TM's L1 (summed over TMs), and what reached the L2 and left it
-    /// for DRAM (line reads). Shading, path-state and framebuffer traffic are not included.
+    /// With caches: every data access, one per line a record touches, through the L1 of
+    /// the TM making it: L1 reads and read misses (summed over TMs; writes go around the L1
+    /// to the L2), L2 accesses (read misses and writes) and misses, DRAM line reads and
+    /// write-backs. The traversal's node and triangle reads, and the shading's
+    /// line accesses: hit triangle and material reads, path-state reads (a ray finished)
+    /// and writes (its successor issued), framebuffer writes.
     pub l1_accesses: u64,
     pub l1_misses: u64,
     pub l2_accesses: u64,
     pub l2_misses: u64,
     pub dram_line_reads: u64,
+    pub dram_line_writes: u64,
+    pub shading_line_reads: u64,
+    pub shading_line_writes: u64,
     /// Instruction fetches, one instruction per operation (`rtsim_trace::ops`): the traversal
     /// steps as ordinary instructions, and with the fused pipelines (`pipeline::fused_fetches`);
     /// one intrinsic per stream push or pop (assumed); the shading transitions (the same with
@@ -336,8 +342,8 @@ pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<Flow
         let top = h.topology();
         for &l1 in top.leaves() {
             let st = h.stats(l1);
-            f.stats.l1_accesses += st.accesses();
-            f.stats.l1_misses += st.misses();
+            f.stats.l1_accesses += st.reads;
+            f.stats.l1_misses += st.read_misses;
         }
         for n in 0..h.caches().len() {
             if !top.leaves().contains(&n) {
@@ -347,6 +353,7 @@ pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<Flow
             }
         }
         f.stats.dram_line_reads = h.memory.reads;
+        f.stats.dram_line_writes = h.memory.writes;
     }
     Ok(FlowOutput {
         pixels: f.out,
@@ -381,7 +388,8 @@ impl Flow<'_> {
                 break;
             };
             self.stats.initial_paths += 1;
-            self.advance(id, r)?;
+            // The fill is spread over the TMs, slot k on TM k mod tms (assumed).
+            self.advance(id % self.tms, id, r)?;
         }
         Ok(())
     }
@@ -412,11 +420,20 @@ impl Flow<'_> {
 
     /// After a transition of path `id`: push its next ray onto the root buffer, or finish
     /// its pixel and start the next one (retiring the slot when none is left).
-    fn advance(&mut self, id: usize, mut r: Resumed) -> Result<(), FlowError> {
+    fn advance(&mut self, tm: usize, id: usize, mut r: Resumed) -> Result<(), FlowError> {
         loop {
             self.stats.fetches_shading += ops::shading(&r.shading).total() as u64;
-            if r.shading.framebuffer.is_some() {
+            let img = self.input.image;
+            let lb = self.line_bytes;
+            if let Some(slot) = r.shading.triangle {
+                self.data(tm, img.triangle_lines(slot, lb), MemOp::Read);
+            }
+            if let Some(m) = r.shading.material {
+                self.data(tm, img.material_lines(m, lb), MemOp::Read);
+            }
+            if let Some(px) = r.shading.framebuffer {
                 self.stats.framebuffer_writes += 1;
+                self.data(tm, img.framebuffer_lines(px, lb), MemOp::Write);
             }
             match r.next {
                 Next::Trace(job) => {
@@ -429,6 +446,11 @@ impl Flow<'_> {
                     };
                     let rec = s.to_record(id as u32, job.id.kind as u8)?;
                     self.stats.path_state_writes += 1;
+                    let lines = self
+                        .input
+                        .image
+                        .path_state_lines(id as u32, self.line_bytes);
+                    self.data(tm, lines, MemOp::Write);
                     self.stats.pushes_root += 1;
                     return self.push(0, &rec);
                 }
@@ -449,7 +471,12 @@ impl Flow<'_> {
     }
 
     /// A finished ray: count it, shade it, issue its successor.
-    fn finish(&mut self, id: usize, h: rtsim_trace::traverse::SlotHit) -> Result<(), FlowError> {
+    fn finish(
+        &mut self,
+        tm: usize,
+        id: usize,
+        h: rtsim_trace::traverse::SlotHit,
+    ) -> Result<(), FlowError> {
         let tracer = self.input.tracer;
         let p = self.paths[id].as_mut().expect("a live path");
         let result = TraceResult::from_slot_hit(tracer, h);
@@ -461,7 +488,25 @@ impl Flow<'_> {
         self.stats.path_state_reads += 1;
         let job = p.job;
         let r = self.input.integ.resume(&mut p.state, &job, &result);
-        self.advance(id, r)
+        let lines = self
+            .input
+            .image
+            .path_state_lines(id as u32, self.line_bytes);
+        self.data(tm, lines, MemOp::Read);
+        self.advance(tm, id, r)
+    }
+
+    /// A shading or path-state access of TM `tm` through the caches, if modelled.
+    fn data(&mut self, tm: usize, span: rtsim_bvh::LineSpan, op: MemOp) {
+        if let Some(h) = &mut self.caches {
+            for line in span.iter() {
+                h.access(tm, line, op);
+                match op {
+                    MemOp::Read => self.stats.shading_line_reads += 1,
+                    MemOp::Write => self.stats.shading_line_writes += 1,
+                }
+            }
+        }
     }
 
     fn kind_of(&self, b: u32) -> TreeletKind {
@@ -640,7 +685,7 @@ impl Flow<'_> {
                 return Err(FlowError::NotBitStack);
             };
             let to = match step {
-                Step::Done(h) => return self.finish(id, h),
+                Step::Done(h) => return self.finish(tm, id, h),
                 Step::Treelet { to, .. } => Some((to, Cause::Crossing)),
                 Step::Node { node, leaf: true } => {
                     let n = &tracer.bvh().nodes[node as usize];
