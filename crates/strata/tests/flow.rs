@@ -204,8 +204,15 @@ fn sibenik_equals_the_functional_tracer() {
         return;
     };
     let t = w.treelets().unwrap();
-    // Every treelet within its budget (the image checks alignment when it is built).
-    assert!(t.treelets.iter().all(|i| i.bytes <= 16 << 10));
+    // Every treelet within its budget, on a line, never across more DRAM rows than needed
+    // (the image's own check), and every record inside its treelet.
+    assert!(
+        t.treelets
+            .iter()
+            .all(|i| i.bytes <= 16 << 10 && i.base % 64 == 0)
+    );
+    w.image.check().unwrap();
+    assert!(rtsim_bvh::treelet::check_rows(t, 8192).is_empty());
     let p = params(&w, 1);
     let reference = functional(&w, &p);
     let out = strata(&w, &p, &StrataConfig::default(), &chip(8, 8));
