@@ -104,8 +104,8 @@ impl StreamConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct StrataConfig {
     /// Treelet streaming: rays wait in per-treelet buffers of the stream memory and TMs work
-    /// one treelet at a time (STRaTA §3.1). Default true. Off, the chip is the baseline with
-    /// STRaTA's smaller L2 (the paper measures each feature alone).
+    /// one treelet at a time (STRaTA §3.1). Default true. Off, the chip is the baseline:
+    /// no stream memory and the whole `arch.trax.l2` (the paper measures each feature alone).
     pub streaming: bool,
     /// The ray stream memory.
     pub stream: StreamConfig,
@@ -344,6 +344,19 @@ mod tests {
         };
         off.validate_run(&TraceConfig::default(), &linear, 16 << 10)
             .unwrap();
+    }
+
+    #[test]
+    fn streaming_shrinks_the_l2_to_l2_bytes() {
+        let trax = rtsim_trax::TraxConfig::default();
+        let on = StrataConfig::default();
+        assert_eq!(on.chip(&trax).l2.size_bytes, 512 << 10);
+        assert_eq!(on.chip(&trax).l1, trax.l1);
+        let off = StrataConfig {
+            streaming: false,
+            ..StrataConfig::default()
+        };
+        assert_eq!(off.chip(&trax), trax);
     }
 
     #[test]
