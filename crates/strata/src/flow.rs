@@ -235,6 +235,55 @@ struct Ready {
 }
 
 impl Ready {
+    /// The buffer a TM takes under `policy`, among buffers with rays held by fewer than
+    /// `limit` TMs (`holders[b]`; 0: any number). `most-rays` ranks buffers by their
+    /// unclaimed rays, the count minus `tps` for every TM already on it (with one TM per
+    /// buffer, simply the count), ties to the lowest id, and never takes a fully claimed one;
+    /// `round-robin` takes the first after `cursor` in id order, wrapping, and moves it.
+    fn pick(
+        &self,
+        policy: Policy,
+        holders: &[u32],
+        limit: u32,
+        tps: u32,
+        cursor: &mut Option<u32>,
+    ) -> Option<u32> {
+        let free = |b: u32| limit == 0 || holders[b as usize] < limit;
+        match policy {
+            Policy::MostRays => {
+                let mut best: Option<(u64, u32)> = None;
+                for &(count, Reverse(b)) in self.by_count.iter().rev() {
+                    // No buffer further down can beat the best: unclaimed ≤ count.
+                    if best.is_some_and(|(score, _)| (count as u64) < score) {
+                        break;
+                    }
+                    let claimed = holders[b as usize] as u64 * tps as u64;
+                    let unclaimed = (count as u64).saturating_sub(claimed);
+                    if unclaimed > 0
+                        && free(b)
+                        && best.is_none_or(|(score, id)| {
+                            unclaimed > score || (unclaimed == score && b < id)
+                        })
+                    {
+                        best = Some((unclaimed, b));
+                    }
+                }
+                best.map(|(_, b)| b)
+            }
+            Policy::RoundRobin => {
+                let start = cursor.map_or(0, |c| c + 1);
+                let b = self
+                    .by_id
+                    .range(start..)
+                    .chain(self.by_id.range(..start))
+                    .copied()
+                    .find(|&b| free(b))?;
+                *cursor = Some(b);
+                Some(b)
+            }
+        }
+    }
+
     fn update(&mut self, b: u32, old: u32, new: u32) {
         if old > 0 {
             self.by_count.remove(&(old, Reverse(b)));
@@ -513,47 +562,15 @@ impl Flow<'_> {
         self.treelets.treelets[b as usize].kind
     }
 
-    /// A buffer for a TM by the policy, if any may be taken. `most-rays` ranks buffers by
-    /// their unclaimed rays: the count minus one round's worth (`tps_per_tm`) for every TM
-    /// already on it (with one TM per buffer, simply the count).
+    /// A buffer for a TM by the policy, if any may be taken (see [`Ready::pick`]).
     fn pick(&mut self) -> Option<u32> {
-        let limit = self.cfg.tms_per_buffer;
-        let holders = &self.holders;
-        let free = |b: u32| limit == 0 || holders[b as usize] < limit;
-        match self.cfg.policy {
-            Policy::MostRays => {
-                let tps = self.tps as u64;
-                let mut best: Option<(u64, u32)> = None;
-                for &(count, Reverse(b)) in self.ready.by_count.iter().rev() {
-                    // No buffer further down can beat the best: unclaimed ≤ count.
-                    if best.is_some_and(|(score, _)| (count as u64) < score) {
-                        break;
-                    }
-                    let unclaimed = (count as u64).saturating_sub(holders[b as usize] as u64 * tps);
-                    if unclaimed > 0
-                        && free(b)
-                        && best.is_none_or(|(score, id)| {
-                            unclaimed > score || (unclaimed == score && b < id)
-                        })
-                    {
-                        best = Some((unclaimed, b));
-                    }
-                }
-                best.map(|(_, b)| b)
-            }
-            Policy::RoundRobin => {
-                let start = self.rr_cursor.map_or(0, |c| c + 1);
-                let b = self
-                    .ready
-                    .by_id
-                    .range(start..)
-                    .chain(self.ready.by_id.range(..start))
-                    .copied()
-                    .find(|&b| free(b))?;
-                self.rr_cursor = Some(b);
-                Some(b)
-            }
-        }
+        self.ready.pick(
+            self.cfg.policy,
+            &self.holders,
+            self.cfg.tms_per_buffer,
+            self.tps,
+            &mut self.rr_cursor,
+        )
     }
 
     fn end_tenure(&mut self, tm: usize) {
@@ -725,4 +742,68 @@ enum Cause {
     Crossing,
     ToTriangles,
     FromTriangles,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Buffers with the given counts.
+    fn ready(counts: &[u32]) -> Ready {
+        let mut r = Ready::default();
+        for (b, &c) in counts.iter().enumerate() {
+            r.update(b as u32, 0, c);
+        }
+        r
+    }
+
+    #[test]
+    fn most_rays_takes_the_most_unclaimed_rays() {
+        let r = ready(&[5, 0, 40, 40, 12]);
+        let mut cur = None;
+        let mut pick =
+            |holders: &[u32], limit| r.pick(Policy::MostRays, holders, limit, 8, &mut cur);
+        // Fullest first, ties to the lowest id.
+        assert_eq!(pick(&[0; 5], 0), Some(2));
+        // Buffer 2 has a TM (8 rays claimed: 32 left), 3 none: 3 wins.
+        assert_eq!(pick(&[0, 0, 1, 0, 0], 0), Some(3));
+        // 2 and 3 with four TMs each (32 claimed, 8 left): 4's 12 win.
+        assert_eq!(pick(&[0, 0, 4, 4, 0], 0), Some(4));
+        // One TM per buffer: held buffers are out whatever their counts.
+        assert_eq!(pick(&[0, 0, 1, 1, 1], 1), Some(0));
+        // Fully claimed everywhere: nothing to take; empty buffers are never taken.
+        assert_eq!(pick(&[1, 0, 5, 5, 2], 0), None);
+    }
+
+    #[test]
+    fn round_robin_cycles_through_non_empty_buffers() {
+        let r = ready(&[3, 0, 1, 0, 7]);
+        let mut cur = None;
+        let free = [0u32; 5];
+        let order: Vec<_> = (0..5)
+            .map(|_| r.pick(Policy::RoundRobin, &free, 0, 8, &mut cur))
+            .collect();
+        assert_eq!(order, [Some(0), Some(2), Some(4), Some(0), Some(2)]);
+        // Held buffers are skipped under a limit.
+        let mut cur = Some(0);
+        assert_eq!(
+            r.pick(Policy::RoundRobin, &[0, 0, 1, 0, 0], 1, 8, &mut cur),
+            Some(4)
+        );
+        assert_eq!(cur, Some(4));
+        let empty = Ready::default();
+        assert_eq!(empty.pick(Policy::RoundRobin, &free, 0, 8, &mut cur), None);
+    }
+
+    #[test]
+    fn updates_keep_both_orders() {
+        let mut r = ready(&[2, 2]);
+        r.update(0, 2, 0);
+        r.update(1, 2, 3);
+        assert_eq!(r.by_id.iter().copied().collect::<Vec<_>>(), [1]);
+        assert_eq!(
+            r.by_count.iter().copied().collect::<Vec<_>>(),
+            [(3, Reverse(1))]
+        );
+    }
 }
