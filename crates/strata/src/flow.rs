@@ -119,6 +119,8 @@ pub enum FlowError {
     NoTps,
     #[error(transparent)]
     Config(#[from] rtsim_config::ConfigError),
+    #[error("no TM could take any of the {rays} rays in the stream memory (a scheduling bug)")]
+    Stalled { rays: u32 },
 }
 
 /// Counts of the flow (numerators and denominators kept; ratios when reporting).
@@ -601,6 +603,7 @@ impl Flow<'_> {
         let mut batch = Vec::with_capacity(tps);
         while !self.stream.is_empty() {
             self.stats.rounds += 1;
+            let pops = self.stream.stats().pops;
             for tm in 0..self.tms {
                 if let Some(b) = self.tm_treelet[tm]
                     && self.stream.count(b) == 0
@@ -637,6 +640,13 @@ impl Flow<'_> {
                 for rec in &batch {
                     self.run_ray(tm, b, rec)?;
                 }
+            }
+            // The policies always leave some TM a ray to take (see `Ready::pick`); a round
+            // without one would repeat forever.
+            if self.stream.stats().pops == pops {
+                return Err(FlowError::Stalled {
+                    rays: self.stream.len(),
+                });
             }
         }
         for tm in 0..self.tms {
