@@ -36,6 +36,11 @@
 //!   image's `path_state` region, one 64-byte record per path slot: read once when a ray
 //!   finishes (to shade it) and written once when the successor is issued. The model counts
 //!   these accesses; the host keeps the values.
+//! - **Caches and fetches.** With `FlowChip::caches`, every data access (node and triangle
+//!   records, the shading's triangle and material reads, path state, framebuffer) goes
+//!   through the L1 of the TM making it and the L2, untimed. Instruction fetches are counted
+//!   one per operation (`rtsim_trace::ops`), with and without the fused pipelines
+//!   ([`crate::pipeline`]).
 //!
 //! Every step a TM runs is checked against its buffer: node steps only on node treelets,
 //! triangle tests only on triangle treelets; and every record it reads is classified as inside
