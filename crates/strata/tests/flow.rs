@@ -192,10 +192,18 @@ fn policies_and_sharing_change_the_schedule_not_the_image() {
 fn the_flow_is_deterministic() {
     let w = load("cornell", 12, 12).unwrap();
     let p = params(&w, 1);
-    let a = strata(&w, &p, &StrataConfig::default(), &chip(2, 4));
-    let b = strata(&w, &p, &StrataConfig::default(), &chip(2, 4));
+    let cfg = StrataConfig::default();
+    let trax = rtsim_trax::TraxConfig {
+        tms: 2,
+        tps_per_tm: 4,
+        ..rtsim_trax::TraxConfig::default()
+    };
+    let fc = FlowChip::of(&trax, &cfg, 1);
+    let a = strata(&w, &p, &cfg, &fc);
+    let b = strata(&w, &p, &cfg, &fc);
     assert_eq!(a.stats, b.stats);
     assert_eq!(a.rays, b.rays);
+    assert!(a.stats.l1_accesses > 0);
 }
 
 #[test]
