@@ -281,29 +281,7 @@ impl Descriptor {
     }
 
     fn check(&self) -> Result<(), Invalid> {
-        let bad = |key: &str, message: String| Invalid {
-            key: key.to_string(),
-            message,
-        };
-        let finite = |key: &str, a: &[f32]| {
-            if a.iter().all(|v| v.is_finite()) {
-                Ok(())
-            } else {
-                Err(bad(key, format!("must be finite, got {a:?}")))
-            }
-        };
-        // Positions: finite and within what the BVH and camera arithmetic can hold.
-        let coord = |key: &str, a: &[f32]| {
-            finite(key, a)?;
-            if a.iter().all(|v| v.abs() <= MAX_COORDINATE) {
-                Ok(())
-            } else {
-                Err(bad(
-                    key,
-                    format!("must be within ±{MAX_COORDINATE:e}, got {a:?}"),
-                ))
-            }
-        };
+        let bad = invalid;
         let colour = |key: &str, a: [f32; 3], max: f32| {
             finite(key, &a)?;
             if a.iter().all(|&v| (0.0..=max).contains(&v)) {
@@ -507,31 +485,41 @@ impl Descriptor {
     }
 }
 
+fn invalid(key: &str, message: String) -> Invalid {
+    Invalid {
+        key: key.to_string(),
+        message,
+    }
+}
+
+/// Every component finite.
+fn finite(key: &str, a: &[f32]) -> Result<(), Invalid> {
+    if a.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(invalid(key, format!("must be finite, got {a:?}")))
+    }
+}
+
+/// A position: finite and within what the BVH and camera arithmetic can hold.
+fn coord(key: &str, a: &[f32]) -> Result<(), Invalid> {
+    finite(key, a)?;
+    if a.iter().all(|v| v.abs() <= MAX_COORDINATE) {
+        Ok(())
+    } else {
+        Err(invalid(
+            key,
+            format!("must be within ±{MAX_COORDINATE:e}, got {a:?}"),
+        ))
+    }
+}
+
 /// Checks of a camera (`[camera]` or a `[[viewpoint]]`), errors naming `key`.
 fn check_camera(
     c: &CameraSpec,
     key: &str,
     bad: &dyn Fn(&str, String) -> Invalid,
 ) -> Result<(), Invalid> {
-    let finite = |k: &str, a: &[f32]| {
-        if a.iter().all(|v| v.is_finite()) {
-            Ok(())
-        } else {
-            Err(bad(k, format!("must be finite, got {a:?}")))
-        }
-    };
-    // Positions: finite and within what the BVH and camera arithmetic can hold.
-    let coord = |k: &str, a: &[f32]| {
-        finite(k, a)?;
-        if a.iter().all(|v| v.abs() <= MAX_COORDINATE) {
-            Ok(())
-        } else {
-            Err(bad(
-                k,
-                format!("must be within ±{MAX_COORDINATE:e}, got {a:?}"),
-            ))
-        }
-    };
     coord(&format!("{key}.eye"), &c.eye)?;
     finite(&format!("{key}.up"), &c.up)?;
     let dir = match (c.direction, c.look_at) {
