@@ -313,3 +313,29 @@ fn which(bin: &str) -> Option<PathBuf> {
             .find(|p| p.is_file())
     })
 }
+
+/// Every experiment shipped in `experiments/` is valid: its points list, and the first and last
+/// points of its `--quick` version run.
+#[test]
+fn shipped_experiments_run_at_quick_scale() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let exp = e.unwrap().path();
+        if exp.extension().is_none_or(|x| x != "toml") {
+            continue;
+        }
+        n += 1;
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("r");
+        let list = ok(sweep(&exp, &out).arg("--list"));
+        let points = list.lines().filter(|l| l.starts_with('p')).count();
+        assert!(points > 0, "{}: {list}", exp.display());
+        for p in [0, points - 1] {
+            ok(sweep(&exp, &out)
+                .arg("--quick")
+                .args(["--point", &p.to_string()]));
+        }
+    }
+    assert!(n > 0, "no experiments in {}", dir.display());
+}
