@@ -108,6 +108,9 @@ pub(crate) struct Core {
     pub pixel_since: u64,
 }
 
+// The hot fields share the first cache line; the whole state is four.
+const _: () = assert!(std::mem::size_of::<Core>() == 256);
+
 impl Core {
     /// The cycle register `r` can be read (meaningless while it waits for a miss).
     #[inline(always)]

@@ -14,92 +14,115 @@
 //! memory or a long-latency unit costs nothing until it can act.
 
 use crate::chip::{Chip, ChipError, Offered, Wait};
+use crate::isa::UNIT_CLASSES;
 use crate::stats::Stall;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 const EMPTY: u64 = u64::MAX;
 
-/// Per-TM rings of issue-slot counts: one row per cycle — its cycle (8 bytes), then a count
-/// per unit class and per instruction-cache bank — reused once its cycle is past.
+/// Rings of per-cycle slot counts, one ring per *lane* (a TM's execution units, or one
+/// instruction cache's banks): a row of `width` bytes per cycle, reused once its cycle is
+/// past. No tags: each lane remembers the first cycle it has not yet cleared (`fresh`), and a
+/// booking beyond it clears the rows in between (their slots held cycles already past).
 #[derive(Debug)]
-struct Calendar {
-    tms: usize,
-    /// Counts per row.
+struct Ring {
+    lanes: usize,
+    /// Bytes per row (a power of two).
     width: usize,
-    /// Bytes per row (the cycle tag, the counts, padding to 8).
-    stride: usize,
+    /// Rows per lane (a power of two).
     slots: usize,
+    /// Bytes from one lane to the next: its rows and a cache line of padding, so that the
+    /// same cycle's rows of different lanes do not all fall into the same few sets of the
+    /// host's caches (a power-of-two stride would).
+    lane_bytes: usize,
+    /// Per lane: rows of cycles below this hold their counts; from it on, stale.
+    fresh: Vec<u64>,
     data: Vec<u8>,
 }
 
-const TAG: usize = 8;
-
-impl Calendar {
-    fn new(tms: usize, width: usize, slots: usize) -> Self {
-        let stride = (TAG + width).next_multiple_of(8);
-        let mut c = Calendar {
-            tms,
+impl Ring {
+    fn new(lanes: usize, counts: usize, slots: usize) -> Self {
+        let width = counts.next_power_of_two();
+        let lane_bytes = slots * width + 64;
+        Ring {
+            lanes,
             width,
-            stride,
             slots,
-            data: vec![0; tms * slots * stride],
-        };
-        for i in 0..tms * slots {
-            c.set_tag(i, EMPTY);
+            lane_bytes,
+            fresh: vec![0; lanes],
+            data: vec![0; lanes * lane_bytes],
         }
-        c
     }
 
-    #[inline(always)]
-    fn tag(&self, i: usize) -> u64 {
-        let at = i * self.stride;
-        u64::from_le_bytes(self.data[at..at + TAG].try_into().expect("8 bytes"))
-    }
-
-    #[inline(always)]
-    fn set_tag(&mut self, i: usize, c: u64) {
-        let at = i * self.stride;
-        self.data[at..at + TAG].copy_from_slice(&c.to_le_bytes());
-    }
-
-    /// Double the ring (a booking reached further ahead than it holds); live rows move to
-    /// their new places.
-    fn grow(&mut self) {
-        let mut bigger = Calendar::new(self.tms, self.width, self.slots * 2);
-        for tm in 0..self.tms {
-            for s in 0..self.slots {
-                let old = tm * self.slots + s;
-                let c = self.tag(old);
-                if c == EMPTY {
-                    continue;
-                }
-                let new = tm * bigger.slots + (c as usize & (bigger.slots - 1));
-                let (o, n) = (old * self.stride, new * bigger.stride);
-                bigger.data[n..n + self.stride].copy_from_slice(&self.data[o..o + self.stride]);
+    /// Double the ring (a booking reached further ahead than it holds); live rows (cycles
+    /// `now..fresh`) move to their new places.
+    #[cold]
+    fn grow(&mut self, now: u64) {
+        let mut bigger = Ring::new(self.lanes, self.width, self.slots * 2);
+        for lane in 0..self.lanes {
+            let fresh = self.fresh[lane];
+            for c in now..fresh {
+                let o = self.at(lane, c);
+                let n = bigger.at(lane, c);
+                bigger.data[n..n + self.width].copy_from_slice(&self.data[o..o + self.width]);
             }
+            bigger.fresh[lane] = fresh;
         }
         *self = bigger;
     }
 
-    /// The counts of cycle `c` in TM `tm` (cleared if the row held an older cycle; `now` is
-    /// the engine's current cycle: rows before it are dead).
     #[inline(always)]
-    fn row(&mut self, tm: usize, c: u64, now: u64) -> &mut [u8] {
-        loop {
-            let i = tm * self.slots + (c as usize & (self.slots - 1));
-            let tag = self.tag(i);
-            if tag != c {
-                if tag != EMPTY && tag >= now {
-                    self.grow();
-                    continue;
-                }
-                self.set_tag(i, c);
-                let at = i * self.stride;
-                self.data[at + TAG..at + self.stride].fill(0);
-            }
-            let at = i * self.stride + TAG;
-            return &mut self.data[at..at + self.width];
+    fn at(&self, lane: usize, c: u64) -> usize {
+        lane * self.lane_bytes + (c as usize & (self.slots - 1)) * self.width
+    }
+
+    /// The byte offset of cycle `c`'s row in lane `lane` (`c ≥ now`, the engine's current
+    /// cycle: rows before it are dead), cleared if it held an older cycle.
+    #[inline(always)]
+    fn row(&mut self, lane: usize, c: u64, now: u64) -> usize {
+        debug_assert!(c >= now);
+        let fresh = self.fresh[lane];
+        if c >= fresh {
+            self.clear_to(lane, c, now);
+        }
+        self.at(lane, c)
+    }
+
+    /// Make the rows of lane `lane` up to cycle `c` valid (cleared).
+    #[inline(never)]
+    fn clear_to(&mut self, lane: usize, c: u64, now: u64) {
+        if c - now >= self.slots as u64 {
+            self.grow(now);
+            return self.clear_to(lane, c, now);
+        }
+        let from = self.fresh[lane].max((c + 1).saturating_sub(self.slots as u64));
+        // At most two runs of slots (the ring may wrap).
+        let (a, b) = (self.at(lane, from), self.at(lane, c) + self.width);
+        if a < b {
+            self.data[a..b].fill(0);
+        } else {
+            let lane_start = lane * self.lane_bytes;
+            self.data[a..lane_start + self.slots * self.width].fill(0);
+            self.data[lane_start..b].fill(0);
+        }
+        self.fresh[lane] = c + 1;
+    }
+}
+
+/// The issue-slot calendar: per TM, the slots used per unit class; per instruction cache,
+/// the fetches per bank.
+#[derive(Debug)]
+struct Calendar {
+    units: Ring,
+    banks: Ring,
+}
+
+impl Calendar {
+    fn new(tms: usize, icaches: usize, banks: usize, slots: usize) -> Self {
+        Calendar {
+            units: Ring::new(tms, UNIT_CLASSES, slots),
+            banks: Ring::new(tms * icaches, banks, slots),
         }
     }
 }
@@ -228,7 +251,12 @@ pub fn run(
     progress: Progress<'_>,
 ) -> Result<u64, ChipError> {
     let n = chip.tps();
-    let mut cal = Calendar::new(chip.cfg.tms as usize, chip.row_width, 256);
+    let mut cal = Calendar::new(
+        chip.cfg.tms as usize,
+        chip.cfg.icaches_per_tm as usize,
+        chip.cfg.icache_banks as usize,
+        256,
+    );
     let mut wheel = Wheel::new(n, 1024);
     for tp in 0..n {
         wheel.add(0, tp);
@@ -282,10 +310,16 @@ pub fn run(
         // The batch is in TP order, so TM by TM: order each TM's run by key (a few TPs:
         // insertion sort).
         insertion_sort(&mut offers);
-        for &(_, _, tp) in &offers {
+        for (k, &(_, _, tp)) in offers.iter().enumerate() {
+            if let Some(&(_, _, ahead)) = offers.get(k + AHEAD) {
+                prefetch_tp(chip, ahead as usize);
+            }
             offer(chip, &mut wheel, tp as usize, t)?;
         }
-        for &tp in &batch {
+        for (k, &tp) in batch.iter().enumerate() {
+            if let Some(&ahead) = batch.get(k + AHEAD) {
+                prefetch_tp(chip, ahead as usize);
+            }
             resume(chip, &mut cal, &mut wheel, tp as usize, t)?;
         }
         last = t;
@@ -300,6 +334,32 @@ pub fn run(
     }
     chip.completions = done;
     Ok(last)
+}
+
+/// How many TPs ahead of the one being handled the engine prefetches the state of.
+const AHEAD: usize = 4;
+
+/// Ask the host CPU to bring TP `tp`'s timing state and the head of its work into its cache:
+/// a cycle's TPs are known in advance, and each one's state is usually out of the cache by the
+/// time its turn comes (4,096 TPs' state is larger than the host's L2).
+#[inline(always)]
+fn prefetch_tp(chip: &Chip<'_>, tp: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let core = chip.cores.as_ptr().wrapping_add(tp) as *const i8;
+        let work = chip.works.as_ptr().wrapping_add(tp) as *const i8;
+        for l in 0..std::mem::size_of::<crate::chip::Core>().div_ceil(64) {
+            // SAFETY: prefetching is a hint and never faults, even for a bad address.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(core.wrapping_add(64 * l)) };
+        }
+        for l in 0..2 {
+            // SAFETY: as above.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(work.wrapping_add(64 * l)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (chip, tp);
 }
 
 /// Sort nearly sorted, mostly tiny runs.
@@ -358,7 +418,9 @@ fn run_ahead(
     t: u64,
 ) -> Result<(), ChipError> {
     let tm = chip.cores[tp].tm as usize;
-    let col = chip.cores[tp].icache_col as usize;
+    let per_tm = chip.cfg.tps_per_tm as usize;
+    let icaches = chip.cfg.icaches_per_tm as usize;
+    let lane = tm * icaches + tp % per_tm % icaches;
     loop {
         let Some(i) = chip.current(tp) else {
             return Ok(());
@@ -377,23 +439,32 @@ fn run_ahead(
         let cls = d.class as usize;
         let cap = if unit { chip.cap[cls] } else { 0 };
         let fetch_cap = chip.fetch_cap;
-        let bank = col + d.bank as usize;
+        let bank = d.bank as usize;
         let mut c = e;
         let (mut unit_busy, mut fetch_busy) = (0u64, 0u64);
         loop {
-            let row = cal.row(tm, c, t);
-            if unit && row[cls] >= cap {
-                unit_busy += 1;
-            } else if row[bank] >= fetch_cap {
-                fetch_busy += 1;
-            } else {
-                if unit {
-                    row[cls] += 1;
+            let u = if unit {
+                let u = cal.units.row(tm, c, t) + cls;
+                if cal.units.data[u] >= cap {
+                    unit_busy += 1;
+                    c += 1;
+                    continue;
                 }
-                row[bank] += 1;
-                break;
+                Some(u)
+            } else {
+                None
+            };
+            let b = cal.banks.row(lane, c, t) + bank;
+            if cal.banks.data[b] >= fetch_cap {
+                fetch_busy += 1;
+                c += 1;
+                continue;
             }
-            c += 1;
+            if let Some(u) = u {
+                cal.units.data[u] += 1;
+            }
+            cal.banks.data[b] += 1;
+            break;
         }
         if unit_busy + fetch_busy > 0 {
             let st = &mut chip.issue;
@@ -462,16 +533,31 @@ mod tests {
 
     #[test]
     fn the_calendar_grows_instead_of_overwriting_a_live_row() {
-        let mut c = Calendar::new(2, 3, 4);
-        c.row(1, 10, 10)[0] = 7;
-        c.row(1, 13, 10)[1] = 1;
+        let mut r = Ring::new(2, 3, 4);
+        assert_eq!(r.width, 4);
+        let at = r.row(1, 10, 10);
+        r.data[at] = 7;
+        let at = r.row(1, 13, 10);
+        r.data[at + 1] = 1;
         // Cycle 14 maps onto cycle 10's slot, still live at now = 10: the ring grows.
-        c.row(1, 14, 10)[2] = 2;
-        assert_eq!(c.slots, 8);
-        assert_eq!(c.row(1, 10, 10)[0], 7);
-        assert_eq!(c.row(1, 13, 10)[1], 1);
-        assert_eq!(c.row(1, 14, 10)[2], 2);
-        // A dead row is reused and cleared.
-        assert_eq!(c.row(1, 18, 11)[0], 0);
+        let at = r.row(1, 14, 10);
+        r.data[at + 2] = 2;
+        assert_eq!(r.slots, 8);
+        let at = r.row(1, 10, 10);
+        assert_eq!(r.data[at], 7);
+        let at = r.row(1, 13, 10);
+        assert_eq!(r.data[at + 1], 1);
+        let at = r.row(1, 14, 10);
+        assert_eq!(r.data[at + 2], 2);
+        // Rows between bookings were cleared; lane 0 is untouched.
+        let at = r.row(1, 11, 10);
+        assert_eq!(r.data[at], 0);
+        let at = r.row(0, 10, 10);
+        assert_eq!(r.data[at], 0);
+        // A dead row is reused and cleared: cycle 18 takes cycle 10's slot.
+        let at = r.row(1, 18, 11);
+        assert_eq!(r.data[at], 0);
+        let at = r.row(1, 14, 11);
+        assert_eq!(r.data[at + 2], 2);
     }
 }
