@@ -4,39 +4,13 @@
 
 mod common;
 use rtsim_bvh::{BvhConfig, NodeOrder};
-use rtsim_core::{Pcg32, Ray, Vec3};
+use rtsim_core::Ray;
 use rtsim_scene::{SceneRequest, load_scene};
 use rtsim_trace::fast::FastBvh;
 use rtsim_trace::{Hit, RayCounters, TraceConfig, Tracer, TriangleTest, brute_force_closest};
 
 fn rays_for(scene: &rtsim_scene::Scene, n: usize, seed: u64) -> Vec<Ray> {
-    let b = scene.bounds();
-    let (lo, ext) = (b.min - b.extent() * 0.05, b.extent() * 1.1);
-    let mut g = Pcg32::new(seed, 9);
-    let basis = scene.camera.basis();
-    (0..n)
-        .map(|i| {
-            if i % 2 == 0 {
-                let o = lo
-                    + Vec3::new(
-                        ext.x * g.next_f32(),
-                        ext.y * g.next_f32(),
-                        ext.z * g.next_f32(),
-                    );
-                let d = Vec3::new(g.next_f32() - 0.5, g.next_f32() - 0.5, g.next_f32() - 0.5);
-                Ray::new(o, d, 0.0, f32::INFINITY)
-            } else {
-                let d = scene.camera.direction_through(
-                    &basis,
-                    g.next_f32() * 64.0,
-                    g.next_f32() * 48.0,
-                    64,
-                    48,
-                );
-                Ray::new(scene.camera.eye, d, 0.0, f32::INFINITY)
-            }
-        })
-        .collect()
+    common::scene_rays(scene, n, seed, 9, false, false)
 }
 
 /// Counts rays whose answer differs from brute force: hit or miss, t beyond the tolerance, or

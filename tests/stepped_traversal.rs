@@ -5,45 +5,13 @@
 
 mod common;
 use rtsim_bvh::{BvhConfig, ImageExtras, Layout, MemoryImage, MemoryLayoutConfig, NodeOrder};
-use rtsim_core::{Pcg32, Ray, Vec3};
+use rtsim_core::Ray;
 use rtsim_scene::{Scene, SceneRequest, load_scene};
 use rtsim_trace::traverse::SlotHit;
 use rtsim_trace::{Query, RayCounters, Step, TraceConfig, Tracer, Traversal};
 
 fn rays_for(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
-    let b = scene.bounds();
-    let (lo, ext) = (b.min - b.extent() * 0.05, b.extent() * 1.1);
-    let mut g = Pcg32::new(seed, 17);
-    let basis = scene.camera.basis();
-    (0..n)
-        .map(|i| {
-            if i % 2 == 0 {
-                let o = lo
-                    + Vec3::new(
-                        ext.x * g.next_f32(),
-                        ext.y * g.next_f32(),
-                        ext.z * g.next_f32(),
-                    );
-                let d = Vec3::new(g.next_f32() - 0.5, g.next_f32() - 0.5, g.next_f32() - 0.5);
-                // Some bounded rays, as shadow and AO rays are.
-                let tmax = if i % 6 == 0 {
-                    ext.length() * 0.1
-                } else {
-                    f32::INFINITY
-                };
-                Ray::new(o, d, 0.0, tmax)
-            } else {
-                let d = scene.camera.direction_through(
-                    &basis,
-                    g.next_f32() * 64.0,
-                    g.next_f32() * 48.0,
-                    64,
-                    48,
-                );
-                Ray::new(scene.camera.eye, d.normalized(), 0.0, f32::INFINITY)
-            }
-        })
-        .collect()
+    common::scene_rays(scene, n, seed, 17, true, true)
 }
 
 fn stepped(t: &Tracer, ray: &Ray, q: Query) -> (SlotHit, RayCounters) {

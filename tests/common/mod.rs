@@ -98,3 +98,51 @@ pub fn parse_tris(bytes: &[u8]) -> Vec<[[f32; 3]; 3]> {
         })
         .collect()
 }
+
+/// Rays for checking a tracer on `scene`: even ones from random points of (a margin around) its
+/// bounds in random directions, odd ones from the camera through random points of a 64×48
+/// image. `bounded`: every sixth ray ends at a tenth of the bounds' diagonal, as shadow and AO
+/// rays do; `unit_camera`: camera-ray directions normalised.
+pub fn scene_rays(
+    scene: &rtsim_scene::Scene,
+    n: usize,
+    seed: u64,
+    stream: u64,
+    bounded: bool,
+    unit_camera: bool,
+) -> Vec<rtsim_core::Ray> {
+    use rtsim_core::{Pcg32, Ray, Vec3};
+    let b = scene.bounds();
+    let (lo, ext) = (b.min - b.extent() * 0.05, b.extent() * 1.1);
+    let mut g = Pcg32::new(seed, stream);
+    let basis = scene.camera.basis();
+    (0..n)
+        .map(|i| {
+            if i % 2 == 0 {
+                let o = lo
+                    + Vec3::new(
+                        ext.x * g.next_f32(),
+                        ext.y * g.next_f32(),
+                        ext.z * g.next_f32(),
+                    );
+                let d = Vec3::new(g.next_f32() - 0.5, g.next_f32() - 0.5, g.next_f32() - 0.5);
+                let tmax = if bounded && i % 6 == 0 {
+                    ext.length() * 0.1
+                } else {
+                    f32::INFINITY
+                };
+                Ray::new(o, d, 0.0, tmax)
+            } else {
+                let d = scene.camera.direction_through(
+                    &basis,
+                    g.next_f32() * 64.0,
+                    g.next_f32() * 48.0,
+                    64,
+                    48,
+                );
+                let d = if unit_camera { d.normalized() } else { d };
+                Ray::new(scene.camera.eye, d, 0.0, f32::INFINITY)
+            }
+        })
+        .collect()
+}
