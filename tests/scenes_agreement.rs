@@ -5,7 +5,6 @@
 mod common;
 use rtsim_bvh::{BvhConfig, NodeOrder};
 use rtsim_core::Ray;
-use rtsim_scene::{SceneRequest, load_scene};
 use rtsim_trace::fast::FastBvh;
 use rtsim_trace::{Hit, RayCounters, TraceConfig, Tracer, TriangleTest, brute_force_closest};
 
@@ -43,14 +42,7 @@ fn disagreements(
 }
 
 fn check(name: &str, rays_n: usize) {
-    let dir = common::scene_dir();
-    let scene = load_scene(&SceneRequest {
-        name,
-        size: 1.0,
-        seed: 1,
-        scene_dir: Some(&dir),
-    })
-    .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let scene = common::shared_scene(name);
     let rays = rays_for(&scene, rays_n, 5);
     let reference: Vec<Hit> = rays
         .iter()

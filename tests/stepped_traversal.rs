@@ -6,7 +6,7 @@
 mod common;
 use rtsim_bvh::{BvhConfig, ImageExtras, Layout, MemoryImage, MemoryLayoutConfig, NodeOrder};
 use rtsim_core::Ray;
-use rtsim_scene::{Scene, SceneRequest, load_scene};
+use rtsim_scene::Scene;
 use rtsim_trace::traverse::SlotHit;
 use rtsim_trace::{Query, RayCounters, Step, TraceConfig, Tracer, Traversal};
 
@@ -34,14 +34,7 @@ fn same_hit(a: &SlotHit, b: &SlotHit) -> bool {
 }
 
 fn check(name: &str, n: usize) {
-    let dir = common::scene_dir();
-    let scene = load_scene(&SceneRequest {
-        name,
-        size: 1.0,
-        seed: 1,
-        scene_dir: Some(&dir),
-    })
-    .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let scene = common::shared_scene(name);
     // 32 levels, so the bit stack can run the same BVH.
     let bvh_cfg = BvhConfig {
         max_depth: 32,

@@ -146,3 +146,15 @@ pub fn scene_rays(
         })
         .collect()
 }
+
+/// The shared scene `name` at size 1, seed 1, from [`scene_dir`].
+pub fn shared_scene(name: &str) -> rtsim_scene::Scene {
+    let dir = scene_dir();
+    rtsim_scene::load_scene(&rtsim_scene::SceneRequest {
+        name,
+        size: 1.0,
+        seed: 1,
+        scene_dir: Some(&dir),
+    })
+    .unwrap_or_else(|e| panic!("{name}: {e}"))
+}

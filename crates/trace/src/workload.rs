@@ -785,6 +785,18 @@ mod tests {
         .unwrap()
     }
 
+    /// The Cornell box and its default BVH.
+    fn cornell_bvh() -> (Scene, rtsim_bvh::Bvh) {
+        let scene = cornell();
+        let bvh = rtsim_bvh::build(
+            &scene.triangles,
+            &Default::default(),
+            rtsim_bvh::NodeOrder::DepthFirst,
+        )
+        .unwrap();
+        (scene, bvh)
+    }
+
     fn params(kind: WorkloadKind, spp: u32) -> WorkloadParams {
         WorkloadParams {
             kind,
@@ -810,13 +822,7 @@ mod tests {
     /// any interleaving gives the pixel-by-pixel image and counters.
     #[test]
     fn interleaved_pixels_equal_pixel_by_pixel() {
-        let scene = cornell();
-        let bvh = rtsim_bvh::build(
-            &scene.triangles,
-            &Default::default(),
-            rtsim_bvh::NodeOrder::DepthFirst,
-        )
-        .unwrap();
+        let (scene, bvh) = cornell_bvh();
         let tracer = Tracer::new(&scene.triangles, bvh, &TraceConfig::default()).unwrap();
         for kind in KINDS {
             for spp in [1, 2] {
@@ -879,13 +885,7 @@ mod tests {
 
     #[test]
     fn shading_locates_its_records_in_the_image() {
-        let scene = cornell();
-        let bvh = rtsim_bvh::build(
-            &scene.triangles,
-            &Default::default(),
-            rtsim_bvh::NodeOrder::DepthFirst,
-        )
-        .unwrap();
+        let (scene, bvh) = cornell_bvh();
         let cfg = rtsim_bvh::MemoryLayoutConfig::default();
         let extras =
             rtsim_bvh::ImageExtras::for_run(&cfg, false, scene.materials.len() as u32, 24, 18);
@@ -918,13 +918,7 @@ mod tests {
 
     #[test]
     fn path_segments_follow_the_papers_budget() {
-        let scene = cornell();
-        let bvh = rtsim_bvh::build(
-            &scene.triangles,
-            &Default::default(),
-            rtsim_bvh::NodeOrder::DepthFirst,
-        )
-        .unwrap();
+        let (scene, bvh) = cornell_bvh();
         let tracer = Tracer::new(&scene.triangles, bvh, &TraceConfig::default()).unwrap();
         let integ = Integrator::new(&scene, &tracer, params(WorkloadKind::Path, 1));
         for pixel in 0..24 * 18 {
