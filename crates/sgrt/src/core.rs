@@ -263,11 +263,16 @@ pub(crate) struct Core {
     /// Kept conservative (never later than the unit could act): a unit that acts changes
     /// other units' wakes where it gives them something to do.
     wake: Vec<u64>,
-    /// The least of `wake`.
+    /// At most the least of `wake` (equal to it but where a unit's wake rose within the tick
+    /// it became due in: an early guess only costs a tick in which nothing is due).
     min_wake: u64,
     /// During a tick at `now`: bit `u` set iff `wake[u] <= now` (kept exact as wakes change
     /// within the tick), so the tick visits the due units without scanning the others.
     due: u64,
+    /// Bit `u` set iff `wake[u]` may have changed since the tick began (the units due then,
+    /// and every unit woken or given a wake since), so the tick's end takes the least wake
+    /// over these and the minimum of the others taken at its start, without a second scan.
+    touched: u64,
     now: u64,
     /// Per unit: its TRV and stage (the IST and dispatch: unused).
     unit_trv: Vec<(u8, u8)>,
@@ -387,6 +392,7 @@ impl Core {
             wake: vec![0; units],
             min_wake: 0,
             due: 0,
+            touched: 0,
             now: 0,
             unit_trv: (0..units)
                 .map(|u| ((u / per_trv) as u8, (u % per_trv) as u8))
@@ -415,6 +421,7 @@ impl Core {
     fn wake_at(&mut self, u: usize, t: u64) {
         if self.wake[u] > t {
             self.wake[u] = t;
+            self.touched |= 1 << u;
             self.min_wake = self.min_wake.min(t);
             if t <= self.now {
                 self.due |= 1 << u;
@@ -426,6 +433,7 @@ impl Core {
     #[inline]
     fn set_wake(&mut self, u: usize, w: u64) {
         self.wake[u] = w;
+        self.touched |= 1 << u;
         if w <= self.now {
             self.due |= 1 << u;
         } else {
@@ -463,15 +471,25 @@ impl Core {
             return Ok(());
         }
         self.now = t;
-        self.due = self
-            .wake
-            .iter()
-            .enumerate()
-            .fold(0, |m, (u, &w)| m | (u64::from(w <= t) << u));
+        // One scan: the due units, and the least wake of the others (which only a wake-up in
+        // this tick can change, and that marks the unit touched).
+        let (mut due, mut rest) = (0u64, u64::MAX);
+        for (u, &w) in self.wake.iter().enumerate() {
+            let d = w <= t;
+            due |= u64::from(d) << u;
+            rest = rest.min(if d { u64::MAX } else { w });
+        }
+        self.due = due;
+        self.touched = due;
         self.exits(t, all, env)?;
         self.entries(t, all, env, hier)?;
         self.dispatch(t, all, env)?;
-        self.min_wake = self.wake.iter().copied().min().unwrap_or(u64::MAX);
+        let mut m = self.touched;
+        while m != 0 {
+            rest = rest.min(self.wake[m.trailing_zeros() as usize]);
+            m &= m - 1;
+        }
+        self.min_wake = rest;
         Ok(())
     }
 
