@@ -273,6 +273,9 @@ pub(crate) struct Core {
     /// and every unit woken or given a wake since), so the tick's end takes the least wake
     /// over these and the minimum of the others taken at its start, without a second scan.
     touched: u64,
+    /// Bit `u` set iff `wake[u]` is not `u64::MAX` (a unit waiting for another has no wake),
+    /// so the tick's scan reads only the units that have one.
+    finite: u64,
     now: u64,
     /// Per unit: its TRV and stage (the IST and dispatch: unused).
     unit_trv: Vec<(u8, u8)>,
@@ -393,6 +396,7 @@ impl Core {
             min_wake: 0,
             due: 0,
             touched: 0,
+            finite: u64::MAX >> (64 - units),
             now: 0,
             unit_trv: (0..units)
                 .map(|u| ((u / per_trv) as u8, (u % per_trv) as u8))
@@ -422,6 +426,7 @@ impl Core {
         if self.wake[u] > t {
             self.wake[u] = t;
             self.touched |= 1 << u;
+            self.finite |= 1 << u;
             self.min_wake = self.min_wake.min(t);
             if t <= self.now {
                 self.due |= 1 << u;
@@ -434,6 +439,11 @@ impl Core {
     fn set_wake(&mut self, u: usize, w: u64) {
         self.wake[u] = w;
         self.touched |= 1 << u;
+        if w == u64::MAX {
+            self.finite &= !(1 << u);
+        } else {
+            self.finite |= 1 << u;
+        }
         if w <= self.now {
             self.due |= 1 << u;
         } else {
@@ -474,10 +484,16 @@ impl Core {
         // One scan: the due units, and the least wake of the others (which only a wake-up in
         // this tick can change, and that marks the unit touched).
         let (mut due, mut rest) = (0u64, u64::MAX);
-        for (u, &w) in self.wake.iter().enumerate() {
-            let d = w <= t;
-            due |= u64::from(d) << u;
-            rest = rest.min(if d { u64::MAX } else { w });
+        let mut m = self.finite;
+        while m != 0 {
+            let u = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let w = self.wake[u];
+            if w <= t {
+                due |= 1 << u;
+            } else {
+                rest = rest.min(w);
+            }
         }
         self.due = due;
         self.touched = due;
