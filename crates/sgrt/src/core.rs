@@ -276,6 +276,8 @@ pub(crate) struct Core {
     /// Bit `u` set iff `wake[u]` is not `u64::MAX` (a unit waiting for another has no wake),
     /// so the tick's scan reads only the units that have one.
     finite: u64,
+    /// The TRV stages' bits (every unit below the IST's).
+    stage_mask: u64,
     now: u64,
     /// Per unit: its TRV and stage (the IST and dispatch: unused).
     unit_trv: Vec<(u8, u8)>,
@@ -397,6 +399,7 @@ impl Core {
             due: 0,
             touched: 0,
             finite: u64::MAX >> (64 - units),
+            stage_mask: (1 << (units - 2)) - 1,
             now: 0,
             unit_trv: (0..units)
                 .map(|u| ((u / per_trv) as u8, (u % per_trv) as u8))
@@ -451,18 +454,27 @@ impl Core {
         }
     }
 
-    /// The first unit from `from` on that is due (every unit with `all`), before `end`.
+    /// Whether unit `u` is due (every unit is with `all`).
     #[inline]
-    fn next_due(&self, from: usize, end: usize, all: bool) -> Option<usize> {
-        let live = if all { u64::MAX } else { self.due };
-        let m = live & (u64::MAX << from) & !(u64::MAX << end);
-        (m != 0).then(|| m.trailing_zeros() as usize)
+    fn is_due(&self, u: usize, all: bool) -> bool {
+        all || self.due & (1 << u) != 0
     }
 
-    /// The next due TRV stage from unit `*from` on, as (unit, TRV, stage); moves `*from` past it.
+    /// The next due TRV stage from unit `*from` on (every stage with `all`), as (unit, TRV,
+    /// stage); moves `*from` past it.
     #[inline]
     fn next_due_stage(&self, from: &mut usize, all: bool) -> Option<(usize, usize, usize)> {
-        let u = self.next_due(*from, self.ist_unit(), all)?;
+        let live = if all {
+            self.stage_mask
+        } else {
+            self.due & self.stage_mask
+        };
+        // `*from` is at most the IST's unit (< 64): the shift is defined.
+        let m = live >> *from;
+        if m == 0 {
+            return None;
+        }
+        let u = *from + m.trailing_zeros() as usize;
         *from = u + 1;
         let (k, i) = self.unit_trv[u];
         Some((u, k as usize, i as usize))
@@ -601,7 +613,7 @@ impl Core {
                 self.trvs[k].leave_pipes(t);
             }
         }
-        if self.next_due(ist, ist + 1, all).is_some() {
+        if self.is_due(ist, all) {
             while let Some(slot) = self.ist.stage.pipe.head(t) {
                 if !self.route(t, slot, true, env)? {
                     self.ist.stage.pipe.block(t);
@@ -719,7 +731,7 @@ impl Core {
             let w = self.stage_wake(&trv.stages[i], None, &trv.rau, boxes, t, env);
             self.set_wake(v, w);
         }
-        if self.next_due(u, u + 1, all).is_some() {
+        if self.is_due(u, all) {
             self.enter_ist(t, env, hier)?;
             let ist = &self.ist;
             let w = self.stage_wake(&ist.stage, Some(&ist.looped), &ist.rau, None, t, env);
@@ -984,7 +996,7 @@ impl Core {
     /// short stack and room in the queue of its first step; at most one ray per cycle.
     fn dispatch(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
         let rd = self.rd_unit();
-        if self.next_due(rd, rd + 1, all).is_none() {
+        if !self.is_due(rd, all) {
             return Ok(());
         }
         self.dispatch_one(t, env)?;
