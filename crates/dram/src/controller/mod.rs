@@ -105,8 +105,8 @@ impl Channel {
             index,
             engine: Engine::new(spec),
             q: RequestQueues::new(policy, banks, o.ranks as usize),
-            offers: Offers::new(banks),
-            alts: Offers::new(banks),
+            offers: Offers::new(banks, o.banks_per_group as usize),
+            alts: Offers::new(banks, o.banks_per_group as usize),
             use_alts: !ctl.protect_row_hits || ctl.scheduler == SchedulerKind::UsimmFcfs,
             merged_list: Vec::with_capacity(
                 (ctl.read_queue + ctl.write_queue) as usize
@@ -749,7 +749,10 @@ impl Channel {
     fn exact_next_event(&self, from: u64) -> u64 {
         debug_assert!(self.dirty_list.is_empty());
         let alts = self.use_alts.then_some(&self.alts);
-        let min = self.offers.scan(alts, &self.shared, 0).min_ready;
+        let mut min = self.offers.min_ready(&self.shared);
+        if let Some(a) = alts {
+            min = min.min(a.min_ready(&self.shared));
+        }
         self.next_event_from(from, min)
     }
 
@@ -857,13 +860,23 @@ type Calendar = [u64; CALENDAR_LEN];
 /// Bank commands (ACT, PRE, RD, WR) as next commands: the kinds banks offer.
 const BANK_KINDS: usize = 4;
 
-/// One offer per bank: the candidate, and apart from it, packed for the per-cycle scan over
-/// the banks, its priority, the bank's own ready time for it and where its shared ready time is
-/// in the channel's calendar.
+/// One offer per bank: the candidate, and apart from it, packed for the scans, its priority,
+/// the bank's own ready time for it and where its shared ready time is in the channel's
+/// calendar. The banks offering are also filed by calendar entry (bank group and kind): a
+/// bitmask of them and the smallest of their own ready times. An entry's offers are all ready
+/// no earlier than the larger of that minimum and the shared time, so the earliest ready time
+/// of all offers takes one look per entry, and choosing looks only at the banks of entries
+/// that can be ready, instead of at every bank.
 #[derive(Clone, Debug)]
 struct Offers {
     cand: Vec<Candidate>,
     slots: Vec<OfferSlot>,
+    /// By calendar index (`group × 8 + kind`): bit `j` = bank `group × banks_per_group + j`
+    /// offers that kind (at most 64 banks per group, `config::Organisation`'s limit).
+    members: Vec<u64>,
+    /// By calendar index: the smallest `OfferSlot::local` among `members` (`u64::MAX` if none).
+    min_local: Vec<u64>,
+    banks_per_group: usize,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -902,28 +915,106 @@ struct Pick {
 }
 
 impl Offers {
-    fn new(banks: usize) -> Self {
+    fn new(banks: usize, banks_per_group: usize) -> Self {
+        let entries = banks / banks_per_group * SHARED_STRIDE;
         Offers {
             cand: vec![Candidate::NONE; banks],
             slots: vec![OfferSlot::NONE; banks],
+            members: vec![0; entries],
+            min_local: vec![u64::MAX; entries],
+            banks_per_group,
         }
     }
 
     /// Bank `b` offers `c` (or nothing).
     #[inline]
     fn set(&mut self, b: usize, c: Option<Candidate>, sched: SchedulerKind, engine: &Engine) {
+        let bit = 1u64 << (b % self.banks_per_group);
+        let old = self.slots[b];
+        if old.local != u64::MAX {
+            // Leave the old entry; its minimum is recomputed if it was this bank's.
+            let i = old.shared_at;
+            self.members[i] &= !bit;
+            if old.local == self.min_local[i] {
+                let base = b - b % self.banks_per_group;
+                let mut min = u64::MAX;
+                let mut m = self.members[i];
+                while m != 0 {
+                    min = min.min(self.slots[base + m.trailing_zeros() as usize].local);
+                    m &= m - 1;
+                }
+                self.min_local[i] = min;
+            }
+        }
         self.slots[b] = match c {
             Some(c) => {
                 let k = usize::from(c.kind);
                 self.cand[b] = c;
-                OfferSlot {
+                let slot = OfferSlot {
                     local: engine.bank_ready(k, b),
                     priority: scheduler::priority(sched, &c),
                     shared_at: engine.group_index(b) * SHARED_STRIDE + k,
-                }
+                };
+                let i = slot.shared_at;
+                self.members[i] |= bit;
+                self.min_local[i] = self.min_local[i].min(slot.local);
+                slot
             }
             None => OfferSlot::NONE,
         };
+    }
+
+    /// The earliest ready time of any offer (`u64::MAX` if none): one look per calendar entry.
+    #[inline]
+    fn min_ready(&self, shared: &Calendar) -> u64 {
+        let mut min = u64::MAX;
+        for (i, (&m, &l)) in self.members.iter().zip(&self.min_local).enumerate() {
+            if m != 0 {
+                min = min.min(l.max(shared[i % CALENDAR_LEN]));
+            }
+        }
+        min
+    }
+
+    /// The ready offer of highest priority at `t` among the entries' members (the lowest bank
+    /// among equals), offers whose bank's `primary` offer is ready excepted when given (an
+    /// alternative yields to its bank's offer); `best` is updated in place, and the earliest
+    /// ready time of all is returned.
+    #[inline]
+    fn pick(
+        &self,
+        primary: Option<&Offers>,
+        shared: &Calendar,
+        t: u64,
+        best: &mut (u64, usize, bool),
+    ) -> u64 {
+        let mut min = u64::MAX;
+        for (i, (&m, &l)) in self.members.iter().zip(&self.min_local).enumerate() {
+            if m == 0 {
+                continue;
+            }
+            let s = shared[i % CALENDAR_LEN];
+            let r = l.max(s);
+            min = min.min(r);
+            if r > t {
+                continue;
+            }
+            // The shared time has passed: the members whose own time has are ready.
+            let base = i / SHARED_STRIDE * self.banks_per_group;
+            let mut bits = m;
+            while bits != 0 {
+                let b = base + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let o = &self.slots[b];
+                if o.local > t || primary.is_some_and(|p| p.slots[b].ready(shared) <= t) {
+                    continue;
+                }
+                if o.priority < best.0 || (o.priority == best.0 && b < best.1) {
+                    *best = (o.priority, b, primary.is_some());
+                }
+            }
+        }
+        min
     }
 
     /// The ready offer of highest priority at `t` (the lowest bank among equals), where an
@@ -932,34 +1023,9 @@ impl Offers {
     #[inline]
     fn scan(&self, alts: Option<&Offers>, shared: &Calendar, t: u64) -> Pick {
         let mut best = (u64::MAX, usize::MAX, false);
-        let mut min = u64::MAX;
-        match alts {
-            None => {
-                for (b, o) in self.slots.iter().enumerate() {
-                    let r = o.ready(shared);
-                    min = min.min(r);
-                    if r <= t && o.priority < best.0 {
-                        best = (o.priority, b, false);
-                    }
-                }
-            }
-            Some(a) => {
-                for (b, (o, oa)) in self.slots.iter().zip(&a.slots).enumerate() {
-                    let r = o.ready(shared);
-                    let ra = oa.ready(shared);
-                    min = min.min(r).min(ra);
-                    let (p, alt) = if r <= t {
-                        (o.priority, false)
-                    } else if ra <= t {
-                        (oa.priority, true)
-                    } else {
-                        continue;
-                    };
-                    if p < best.0 {
-                        best = (p, b, alt);
-                    }
-                }
-            }
+        let mut min = self.pick(None, shared, t, &mut best);
+        if let Some(a) = alts {
+            min = min.min(a.pick(Some(self), shared, t, &mut best));
         }
         Pick {
             best: (best.1 != usize::MAX).then_some((best.1, best.2)),
