@@ -54,7 +54,7 @@ pub struct Channel {
     use_alts: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
-    /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 8 + k`, kept
+    /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 4 + k`, kept
     /// current after each command for the kinds it raises. An offer's earliest cycle is the
     /// larger of its bank's own ready time and its entry here, so a command touches only the
     /// few entries it raises instead of every bank's offer.
@@ -74,6 +74,8 @@ pub struct Channel {
     /// All cycles below this have been simulated.
     done_below: u64,
     banks_per_rank: usize,
+    /// log2(`banks_per_rank`) (a power of two, `config::Organisation`): a bank's rank is a shift.
+    rank_shift: u32,
     cl: u64,
     cwl: u64,
     burst: u64,
@@ -126,6 +128,7 @@ impl Channel {
             next_event: u64::MAX,
             done_below: 0,
             banks_per_rank: o.banks_per_rank as usize,
+            rank_shift: o.banks_per_rank.trailing_zeros(),
             cl: spec.t.cl,
             cwl: spec.t.cwl,
             burst: spec.t.burst,
@@ -369,11 +372,19 @@ impl Channel {
     }
 
     /// Recompute the offers of banks whose inputs changed.
+    #[inline]
     fn settle_candidates(&mut self) {
+        if !self.dirty_list.is_empty() {
+            self.settle_dirty();
+        }
+    }
+
+    /// [`Channel::settle_candidates`] when some bank is dirty.
+    fn settle_dirty(&mut self) {
         while let Some(b) = self.dirty_list.pop() {
             let b = b as usize;
             self.dirty[b] = false;
-            let rank = b / self.banks_per_rank;
+            let rank = b >> self.rank_shift;
             let (offer, alt) = if self.rank_blocked(rank) {
                 (None, None)
             } else {
@@ -582,7 +593,7 @@ impl Channel {
 
     fn issue(&mut self, c: Choice, t: u64) {
         let b = c.bank;
-        let rank = b / self.banks_per_rank;
+        let rank = b >> self.rank_shift;
         let mut cmd = c.cmd;
         let mut auto_close = false;
         if matches!(cmd, Cmd::Rd | Cmd::Wr)
@@ -850,8 +861,9 @@ impl Channel {
     }
 }
 
-/// Stride of a bank group's entries in the calendar of shared ready times (one per kind).
-const SHARED_STRIDE: usize = 8;
+/// Stride of a bank group's entries in the calendar of shared ready times (one per kind, so
+/// that the scans over the entries have no gaps).
+const SHARED_STRIDE: usize = BANK_KINDS;
 /// Entries of the calendar: every bank group of a channel (at most 16 ranks × 16 groups,
 /// `config::Organisation`'s limits). A fixed power-of-two size lets the scan index it without
 /// bounds checks.
@@ -871,7 +883,7 @@ const BANK_KINDS: usize = 4;
 struct Offers {
     cand: Vec<Candidate>,
     slots: Vec<OfferSlot>,
-    /// By calendar index (`group × 8 + kind`): bit `j` = bank `group × banks_per_group + j`
+    /// By calendar index (`group × 4 + kind`): bit `j` = bank `group × banks_per_group + j`
     /// offers that kind (at most 64 banks per group, `config::Organisation`'s limit).
     members: Vec<u64>,
     /// By calendar index: the smallest `OfferSlot::local` among `members` (`u64::MAX` if none).
@@ -887,7 +899,7 @@ struct OfferSlot {
     local: u64,
     /// [`scheduler::priority`] of the offer (smaller wins).
     priority: u64,
-    /// Index of the offer's shared ready time in the calendar (`group × 8 + kind`).
+    /// Index of the offer's shared ready time in the calendar (`group × 4 + kind`).
     shared_at: usize,
 }
 
