@@ -358,7 +358,8 @@ impl Channel {
 
     #[inline]
     fn rank_blocked(&self, rank: usize) -> bool {
-        self.refresh.pending[rank] || self.engine.is_powered_down(rank)
+        (self.refresh.any_pending() || self.engine.any_powered_down())
+            && (self.refresh.pending[rank] || self.engine.is_powered_down(rank))
     }
 
     /// The kind of request being served: writes in write-drain mode, else reads.
@@ -883,12 +884,19 @@ const BANK_KINDS: usize = 4;
 struct Offers {
     cand: Vec<Candidate>,
     slots: Vec<OfferSlot>,
-    /// By calendar index (`group × 4 + kind`): bit `j` = bank `group × banks_per_group + j`
-    /// offers that kind (at most 64 banks per group, `config::Organisation`'s limit).
-    members: Vec<u64>,
-    /// By calendar index: the smallest `OfferSlot::local` among `members` (`u64::MAX` if none).
-    min_local: Vec<u64>,
+    /// The banks offering each calendar entry's kind, by calendar index.
+    entries: Vec<CalendarOffers>,
     banks_per_group: usize,
+}
+
+/// The offers of one calendar entry (a bank group and a kind).
+#[derive(Clone, Copy, Debug)]
+struct CalendarOffers {
+    /// Bit `j`: bank `group × banks_per_group + j` offers the kind (at most 64 banks per group,
+    /// `config::Organisation`'s limit).
+    members: u64,
+    /// The smallest `OfferSlot::local` among the members (`u64::MAX` if none).
+    min_local: u64,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -932,30 +940,37 @@ impl Offers {
         Offers {
             cand: vec![Candidate::NONE; banks],
             slots: vec![OfferSlot::NONE; banks],
-            members: vec![0; entries],
-            min_local: vec![u64::MAX; entries],
+            entries: vec![
+                CalendarOffers {
+                    members: 0,
+                    min_local: u64::MAX,
+                };
+                entries
+            ],
             banks_per_group,
         }
     }
 
     /// Bank `b` offers `c` (or nothing).
-    #[inline]
+    #[inline(always)]
     fn set(&mut self, b: usize, c: Option<Candidate>, sched: SchedulerKind, engine: &Engine) {
-        let bit = 1u64 << (b % self.banks_per_group);
+        // Banks per group is a power of two (`config::Organisation`).
+        let j = b & (self.banks_per_group - 1);
+        let bit = 1u64 << j;
         let old = self.slots[b];
         if old.local != u64::MAX {
             // Leave the old entry; its minimum is recomputed if it was this bank's.
-            let i = old.shared_at;
-            self.members[i] &= !bit;
-            if old.local == self.min_local[i] {
-                let base = b - b % self.banks_per_group;
+            let e = &mut self.entries[old.shared_at];
+            e.members &= !bit;
+            if old.local == e.min_local {
+                let group = &self.slots[b - j..][..self.banks_per_group];
                 let mut min = u64::MAX;
-                let mut m = self.members[i];
+                let mut m = e.members;
                 while m != 0 {
-                    min = min.min(self.slots[base + m.trailing_zeros() as usize].local);
+                    min = min.min(group[m.trailing_zeros() as usize % group.len()].local);
                     m &= m - 1;
                 }
-                self.min_local[i] = min;
+                e.min_local = min;
             }
         }
         self.slots[b] = match c {
@@ -967,9 +982,9 @@ impl Offers {
                     priority: scheduler::priority(sched, &c),
                     shared_at: engine.group_index(b) * SHARED_STRIDE + k,
                 };
-                let i = slot.shared_at;
-                self.members[i] |= bit;
-                self.min_local[i] = self.min_local[i].min(slot.local);
+                let e = &mut self.entries[slot.shared_at];
+                e.members |= bit;
+                e.min_local = e.min_local.min(slot.local);
                 slot
             }
             None => OfferSlot::NONE,
@@ -980,9 +995,9 @@ impl Offers {
     #[inline]
     fn min_ready(&self, shared: &Calendar) -> u64 {
         let mut min = u64::MAX;
-        for (i, (&m, &l)) in self.members.iter().zip(&self.min_local).enumerate() {
-            if m != 0 {
-                min = min.min(l.max(shared[i % CALENDAR_LEN]));
+        for (i, e) in self.entries.iter().enumerate() {
+            if e.members != 0 {
+                min = min.min(e.min_local.max(shared[i % CALENDAR_LEN]));
             }
         }
         min
@@ -1001,19 +1016,18 @@ impl Offers {
         best: &mut (u64, usize, bool),
     ) -> u64 {
         let mut min = u64::MAX;
-        for (i, (&m, &l)) in self.members.iter().zip(&self.min_local).enumerate() {
-            if m == 0 {
+        for (i, e) in self.entries.iter().enumerate() {
+            if e.members == 0 {
                 continue;
             }
-            let s = shared[i % CALENDAR_LEN];
-            let r = l.max(s);
+            let r = e.min_local.max(shared[i % CALENDAR_LEN]);
             min = min.min(r);
             if r > t {
                 continue;
             }
             // The shared time has passed: the members whose own time has are ready.
             let base = i / SHARED_STRIDE * self.banks_per_group;
-            let mut bits = m;
+            let mut bits = e.members;
             while bits != 0 {
                 let b = base + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
