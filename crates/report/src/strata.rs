@@ -243,45 +243,76 @@ pub fn figure1(r: &Results) -> Figure {
     }
 }
 
+/// Curves against size (Figures 5–6) with their legend names.
+fn size_curves(r: &Results) -> Vec<(Arch, String, Vec<&Row>)> {
+    curves(r, size, |_, row| num(row, TMS))
+        .into_iter()
+        .map(|(a, s, tms, rows)| (a, format!("{s} {} ({tms} TMs)", label(a)), rows))
+        .collect()
+}
+
+/// `y` against size over `rows`, leaving out rows without a value.
+fn size_series(
+    arch: Arch,
+    rows: &[&Row],
+    name: String,
+    color: usize,
+    dashed: bool,
+    y: impl Fn(&Row) -> Option<f64>,
+) -> Series {
+    Series {
+        name,
+        points: rows
+            .iter()
+            .filter_map(|row| y(row).map(|v| (size(arch, row), v)))
+            .collect(),
+        color: palette(color),
+        dashed,
+    }
+}
+
+/// Notes for the architectures without a curve (`drawn`: the curves' architectures, `over`:
+/// what the curves vary).
+fn missing_curves(drawn: &[Arch], over: &str) -> String {
+    [Arch::TraxBaseline, Arch::Strata]
+        .into_iter()
+        .filter(|a| !drawn.contains(a))
+        .map(|a| not_run(&format!("{}: not run over {over}.", label(a))))
+        .collect()
+}
+
 /// Figure 5: L1 misses (solid) and stream accesses (dashed) against L2/stream size.
 pub fn figure5(r: &Results) -> Figure {
     let mut series = Vec::new();
-    let mut notes = String::new();
-    let cs = curves(r, size, |_, row| num(row, TMS));
-    for (i, (arch, s, tms, rows)) in cs.iter().enumerate() {
-        let name = format!("{s} {} ({tms} TMs)", label(*arch));
-        series.push(Series {
-            name: format!("{name} L1 misses"),
-            points: rows
-                .iter()
-                .map(|row| (size(*arch, row), num(row, L1_MISSES)))
-                .collect(),
-            color: palette(i),
-            dashed: false,
-        });
+    let cs = size_curves(r);
+    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
+    let mut notes = missing_curves(&drawn, "sizes");
+    for (i, (arch, name, rows)) in cs.iter().enumerate() {
+        let l1 = |row: &Row| row.num(L1_MISSES);
+        series.push(size_series(
+            *arch,
+            rows,
+            format!("{name} L1 misses"),
+            i,
+            false,
+            l1,
+        ));
         if *arch == Arch::Strata {
-            let pts: Vec<(f64, f64)> = rows
-                .iter()
-                .filter_map(|row| stream_accesses(row).map(|v| (size(*arch, row), v)))
-                .collect();
-            if pts.is_empty() {
+            let stream = size_series(
+                *arch,
+                rows,
+                format!("{name} stream"),
+                i,
+                true,
+                stream_accesses,
+            );
+            if stream.points.is_empty() {
                 notes.push_str(&not_run(&format!(
                     "{name}: no stream-access columns in the results."
                 )));
             }
-            series.push(Series {
-                name: format!("{name} stream"),
-                points: pts,
-                color: palette(i),
-                dashed: true,
-            });
+            series.push(stream);
         }
-    }
-    if !cs.iter().any(|c| c.0 == Arch::Strata) {
-        notes.push_str(&not_run("STRaTA: not run over sizes."));
-    }
-    if !cs.iter().any(|c| c.0 == Arch::TraxBaseline) {
-        notes.push_str(&not_run("baseline: not run over L2 sizes."));
     }
     // The caption's L1 hit rates beside ours (every TRaX-chip row).
     let mut rates = String::from("<p>L1 hit rates, the paper's caption against ours (all runs):");
@@ -332,51 +363,32 @@ pub fn figure5(r: &Results) -> Figure {
 /// Figure 6: L2/stream energy (dashed) and DRAM energy (solid) per frame against size.
 pub fn figure6(r: &Results) -> Figure {
     let mut series = Vec::new();
-    let mut notes = String::new();
-    let cs = curves(r, size, |_, row| num(row, TMS));
-    for (i, (arch, s, tms, rows)) in cs.iter().enumerate() {
-        let name = format!("{s} {} ({tms} TMs)", label(*arch));
-        series.push(Series {
-            name: format!("{name} DRAM"),
-            points: rows
-                .iter()
-                .map(|row| (size(*arch, row), num(row, DRAM_ENERGY)))
-                .collect(),
-            color: palette(i),
-            dashed: false,
-        });
-        let on_chip: Vec<(f64, f64)> = rows
-            .iter()
-            .filter_map(|row| {
-                let stream = if *arch == Arch::Strata {
-                    stream_energy(row)?
-                } else {
-                    0.0
-                };
-                Some((size(*arch, row), num(row, L2_ENERGY) + stream))
-            })
-            .collect();
-        if on_chip.is_empty() {
+    let cs = size_curves(r);
+    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
+    let mut notes = missing_curves(&drawn, "sizes");
+    for (i, (arch, name, rows)) in cs.iter().enumerate() {
+        let dram = |row: &Row| row.num(DRAM_ENERGY);
+        series.push(size_series(
+            *arch,
+            rows,
+            format!("{name} DRAM"),
+            i,
+            false,
+            dram,
+        ));
+        let strata = *arch == Arch::Strata;
+        let on_chip = |row: &Row| {
+            let stream = if strata { stream_energy(row)? } else { 0.0 };
+            Some(num(row, L2_ENERGY) + stream)
+        };
+        let what = if strata { "L2+stream" } else { "L2" };
+        let s = size_series(*arch, rows, format!("{name} {what}"), i, true, on_chip);
+        if s.points.is_empty() {
             notes.push_str(&not_run(&format!(
                 "{name}: no stream-energy column in the results."
             )));
         }
-        series.push(Series {
-            name: format!(
-                "{name} {}",
-                if *arch == Arch::Strata {
-                    "L2+stream"
-                } else {
-                    "L2"
-                }
-            ),
-            points: on_chip,
-            color: palette(i),
-            dashed: true,
-        });
-    }
-    if cs.is_empty() {
-        notes.push_str(&not_run("No runs over L2/stream sizes in these results."));
+        series.push(s);
     }
     Figure {
         name: "strata-fig6",
@@ -415,15 +427,8 @@ pub fn figure7(r: &Results) -> Figure {
             dashed: *arch == Arch::Strata,
         })
         .collect();
-    let mut notes = String::new();
-    for arch in [Arch::TraxBaseline, Arch::Strata] {
-        if !cs.iter().any(|c| c.0 == arch) {
-            notes.push_str(&not_run(&format!(
-                "{}: not run over TM counts.",
-                label(arch)
-            )));
-        }
-    }
+    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
+    let notes = missing_curves(&drawn, "TM counts");
     Figure {
         name: "strata-fig7",
         caption: "STRaTA Figure 7: performance (frames per second) against the number of TMs (32 TPs each); baseline solid, STRaTA dashed. \

@@ -8,14 +8,11 @@
 //! by its dotted name, where the table has no column of that name.
 
 use crate::ReportError;
+use rtsim_sweep::results::{CSV_FILE as CSV, JSONL_FILE as JSONL};
+use rtsim_sweep::store::Store;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// Merged JSON-lines table in a sweep directory (preferred: typed values).
-pub const JSONL: &str = "results.jsonl";
-/// Merged CSV table in a sweep directory.
-pub const CSV: &str = "results.csv";
 /// Each point's resolved configuration, inside `points/pNNNNN/`.
 pub const RESOLVED: &str = "config.resolved.toml";
 
@@ -127,10 +124,7 @@ impl Table {
         };
         let dir = file.parent().unwrap_or(Path::new("."));
         for row in &mut table.rows {
-            let resolved = dir
-                .join("points")
-                .join(format!("p{:05}", row.point))
-                .join(RESOLVED);
+            let resolved = Store::new(dir).point_dir(row.point).join(RESOLVED);
             if resolved.is_file() {
                 complete_from_config(row, &resolved)?;
             }
@@ -266,24 +260,13 @@ fn complete_from_config(row: &mut Row, path: &Path) -> Result<(), ReportError> {
     let text = std::fs::read_to_string(path).map_err(|e| ReportError::io(path, e))?;
     let v: toml::Table =
         toml::from_str(&text).map_err(|e| ReportError::input(path, e.to_string()))?;
-    fn walk(prefix: &str, t: &toml::Table, row: &mut Row) {
-        for (k, v) in t {
-            let key = if prefix.is_empty() {
-                k.clone()
-            } else {
-                format!("{prefix}.{k}")
-            };
-            match v {
-                toml::Value::Table(inner) => walk(&key, inner, row),
-                other => {
-                    if let Some(c) = Cell::from_toml(other) {
-                        row.values.entry(key).or_insert(c);
-                    }
-                }
-            }
+    let mut leaves = Vec::new();
+    rtsim_sweep::experiment::flatten("", &v, &mut leaves);
+    for (key, value) in leaves {
+        if let Some(c) = Cell::from_toml(&value) {
+            row.values.entry(key).or_insert(c);
         }
     }
-    walk("", &v, row);
     Ok(())
 }
 
