@@ -197,6 +197,9 @@ impl Chart {
                         .points
                         .iter()
                         .map(|&(x, y)| (x_axis.map(x), y_axis.map(y)))
+                        // A value the axis cannot place (NaN, infinite, ≤ 0 on a log axis)
+                        // is not drawn.
+                        .filter(|(x, y)| x.is_finite() && y.is_finite())
                         .collect();
                     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
                     if pts.len() > 1 {
@@ -233,7 +236,8 @@ impl Chart {
                     let x0 = l + slot * i as f64 + slot * 0.1;
                     text(&mut out, x0 + slot * 0.4, b + 18.0, 11.0, Anchor::Middle, c);
                     for (j, s) in series.iter().enumerate() {
-                        if let Some(v) = s.values.get(i).copied().flatten() {
+                        let value = s.values.get(i).copied().flatten();
+                        if let Some(v) = value.filter(|v| v.is_finite()) {
                             let y = y_axis.map(v);
                             out.push(Prim::Rect {
                                 x: x0 + bar * j as f64,
@@ -479,6 +483,41 @@ mod tests {
         // Nothing to fit: a usable default, never a NaN.
         let e = Axis::fit(Scale::Log10, [-1.0, f64::NAN].into_iter(), 0.0, 1.0, false);
         assert!(e.map(5.0).is_finite());
+    }
+
+    #[test]
+    fn values_the_axes_cannot_place_are_not_drawn() {
+        let c = Chart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            body: Body::Lines {
+                x_scale: Scale::Log2,
+                y_scale: Scale::Log10,
+                x_ticks: vec![],
+                series: vec![Series {
+                    name: "s".into(),
+                    points: vec![
+                        (1.0, 1.0),
+                        (2.0, 0.0),
+                        (f64::INFINITY, 3.0),
+                        (4.0, f64::NAN),
+                    ],
+                    color: palette(0),
+                    dashed: true,
+                }],
+                marker: None,
+            },
+        };
+        let prims = c.layout();
+        let dots = prims
+            .iter()
+            .filter(|p| matches!(p, Prim::Dot { .. }))
+            .count();
+        assert_eq!(dots, 1);
+        // And both back ends finish.
+        assert!(crate::svg::render(&prims).contains("<circle"));
+        assert!(crate::raster::png(&prims).is_ok());
     }
 
     #[test]

@@ -122,7 +122,7 @@ const CSS: &str =
 h1,h2,h3{font-weight:600}figure{margin:1.5em 0}figcaption{font-size:.95em;margin:.4em 0}
 .notes{font-size:.9em;color:#444}table{border-collapse:collapse;margin:1.5em 0;font-size:.9em}
 caption{text-align:left;padding:.3em 0;font-size:.95em}
-th,td{border:1px solid #ccc;padding:.2em .5em;text-align:right}th{background:#f2f2f2}
+th,td{border:1px solid #ccc;padding:.2em .5em;text-align:right}th{background:#f2f2f2;text-align:center}
 td:first-child,td:nth-child(2){text-align:left}tr.paper td{color:#555}
 tr.ours td{background:#eef5fb}td.missing{color:#b00;font-style:italic}
 .files{font-size:.85em}";
