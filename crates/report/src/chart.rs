@@ -485,31 +485,36 @@ mod tests {
         assert!(e.map(5.0).is_finite());
     }
 
-    #[test]
-    fn values_the_axes_cannot_place_are_not_drawn() {
-        let c = Chart {
+    /// A one-series dashed line chart over a log₂ x axis.
+    fn line_chart(y_scale: Scale, points: Vec<(f64, f64)>, x_ticks: Vec<(f64, String)>) -> Chart {
+        Chart {
             title: "t".into(),
             x_label: "x".into(),
             y_label: "y".into(),
             body: Body::Lines {
                 x_scale: Scale::Log2,
-                y_scale: Scale::Log10,
-                x_ticks: vec![],
+                y_scale,
+                x_ticks,
                 series: vec![Series {
                     name: "s".into(),
-                    points: vec![
-                        (1.0, 1.0),
-                        (2.0, 0.0),
-                        (f64::INFINITY, 3.0),
-                        (4.0, f64::NAN),
-                    ],
+                    points,
                     color: palette(0),
                     dashed: true,
                 }],
-                marker: None,
+                marker: Some((2.0, "m".into())),
             },
-        };
-        let prims = c.layout();
+        }
+    }
+
+    #[test]
+    fn values_the_axes_cannot_place_are_not_drawn() {
+        let points = vec![
+            (1.0, 1.0),
+            (2.0, 0.0),
+            (f64::INFINITY, 3.0),
+            (4.0, f64::NAN),
+        ];
+        let prims = line_chart(Scale::Log10, points, vec![]).layout();
         let dots = prims
             .iter()
             .filter(|p| matches!(p, Prim::Dot { .. }))
@@ -531,23 +536,8 @@ mod tests {
 
     #[test]
     fn line_chart_lays_out_every_point_and_legend_entry() {
-        let c = Chart {
-            title: "t".into(),
-            x_label: "x".into(),
-            y_label: "y".into(),
-            body: Body::Lines {
-                x_scale: Scale::Log2,
-                y_scale: Scale::Linear,
-                x_ticks: vec![(1.0, "1".into()), (4.0, "4".into())],
-                series: vec![Series {
-                    name: "s".into(),
-                    points: vec![(4.0, 2.0), (1.0, 1.0)],
-                    color: palette(0),
-                    dashed: true,
-                }],
-                marker: Some((2.0, "m".into())),
-            },
-        };
+        let ticks = vec![(1.0, "1".into()), (4.0, "4".into())];
+        let c = line_chart(Scale::Linear, vec![(4.0, 2.0), (1.0, 1.0)], ticks);
         assert!(!c.is_empty());
         let prims = c.layout();
         let dots: Vec<_> = prims

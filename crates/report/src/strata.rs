@@ -243,12 +243,19 @@ pub fn figure1(r: &Results) -> Figure {
     }
 }
 
-/// Curves against size (Figures 5–6) with their legend names.
-fn size_curves(r: &Results) -> Vec<(Arch, String, Vec<&Row>)> {
-    curves(r, size, |_, row| num(row, TMS))
+/// A curve of Figures 5–6: architecture, legend name, runs in size order.
+type SizeCurve<'a> = (Arch, String, Vec<&'a Row>);
+
+/// Curves against size (Figures 5–6) with their legend names, and the notes for the
+/// architectures without one.
+fn size_curves(r: &Results) -> (Vec<SizeCurve<'_>>, String) {
+    let cs: Vec<_> = curves(r, size, |_, row| num(row, TMS))
         .into_iter()
         .map(|(a, s, tms, rows)| (a, format!("{s} {} ({tms} TMs)", label(a)), rows))
-        .collect()
+        .collect();
+    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
+    let notes = missing_curves(&drawn, "sizes");
+    (cs, notes)
 }
 
 /// `y` against size over `rows`, leaving out rows without a value.
@@ -284,9 +291,7 @@ fn missing_curves(drawn: &[Arch], over: &str) -> String {
 /// Figure 5: L1 misses (solid) and stream accesses (dashed) against L2/stream size.
 pub fn figure5(r: &Results) -> Figure {
     let mut series = Vec::new();
-    let cs = size_curves(r);
-    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
-    let mut notes = missing_curves(&drawn, "sizes");
+    let (cs, mut notes) = size_curves(r);
     for (i, (arch, name, rows)) in cs.iter().enumerate() {
         let l1 = |row: &Row| row.num(L1_MISSES);
         series.push(size_series(
@@ -363,9 +368,7 @@ pub fn figure5(r: &Results) -> Figure {
 /// Figure 6: L2/stream energy (dashed) and DRAM energy (solid) per frame against size.
 pub fn figure6(r: &Results) -> Figure {
     let mut series = Vec::new();
-    let cs = size_curves(r);
-    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
-    let mut notes = missing_curves(&drawn, "sizes");
+    let (cs, mut notes) = size_curves(r);
     for (i, (arch, name, rows)) in cs.iter().enumerate() {
         let dram = |row: &Row| row.num(DRAM_ENERGY);
         series.push(size_series(
