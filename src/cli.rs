@@ -37,6 +37,9 @@ pub enum Command {
     Cache(crate::commands::cache::CacheArgs),
     /// Run the same frame on several SGRT presets and print speed and step ratios (Table 4).
     Compare(crate::commands::compare::CompareArgs),
+    /// Draw the papers' tables and figures from a sweep's results, beside the published
+    /// values: report.html and every figure as SVG and PNG (docs/EXPERIMENTS.md).
+    Report(crate::commands::report::ReportArgs),
 }
 
 /// Flags shared by everything that loads a scene and a config.

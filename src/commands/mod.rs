@@ -8,6 +8,7 @@ pub mod compare;
 pub mod dram;
 pub mod export;
 pub mod render;
+pub mod report;
 pub mod scenes;
 pub mod simulate;
 pub mod sweep;
@@ -34,6 +35,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Dram(a) => dram::run(a),
         Command::Cache(a) => cache::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Report(a) => report::run(a),
     }
 }
 

@@ -6,7 +6,7 @@
 use crate::progress;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use rtsim_sweep::results::{collect, to_csv, to_jsonl};
+use rtsim_sweep::results::{CSV_FILE, JSONL_FILE, collect, to_csv, to_jsonl};
 use rtsim_sweep::slurm::{SlurmJob, scripts};
 use rtsim_sweep::store::{CONFIG, PointRecord, Status, Store};
 use rtsim_sweep::{Experiment, Point};
@@ -289,8 +289,8 @@ fn merge(e: &Experiment, points: &[Point], quick: bool, store: &Store) -> Result
         missing: &m.missing,
     };
     for (name, text) in [
-        ("results.csv", to_csv(&m)),
-        ("results.jsonl", to_jsonl(&m)),
+        (CSV_FILE, to_csv(&m)),
+        (JSONL_FILE, to_jsonl(&m)),
         (
             "summary.json",
             serde_json::to_string_pretty(&summary)? + "\n",
@@ -304,7 +304,7 @@ fn merge(e: &Experiment, points: &[Point], quick: bool, store: &Store) -> Result
         "merged {} of {} points into {}",
         m.rows.len(),
         points.len(),
-        root.join("results.csv").display()
+        root.join(CSV_FILE).display()
     );
     Ok(m.missing)
 }

@@ -146,8 +146,9 @@ pub fn toml_to_json(v: &Value) -> Json {
     }
 }
 
-/// Flatten a table into (dotted key, leaf value) pairs; arrays are leaves.
-fn flatten(prefix: &str, t: &Table, out: &mut Vec<(String, Value)>) {
+/// Flatten a table into (dotted key, leaf value) pairs; arrays are leaves. (`rtsim report`
+/// reads each point's `config.resolved.toml` through it too.)
+pub fn flatten(prefix: &str, t: &Table, out: &mut Vec<(String, Value)>) {
     for (k, v) in t {
         let key = if prefix.is_empty() {
             k.clone()

@@ -13,6 +13,10 @@ use crate::store::{PointRecord, Status, Store};
 use serde_json::{Map, Value};
 use std::collections::BTreeSet;
 
+/// The merged table's file names in the results directory.
+pub const CSV_FILE: &str = "results.csv";
+pub const JSONL_FILE: &str = "results.jsonl";
+
 /// Numeric and boolean leaves of `v`, by dotted path, in key order.
 pub fn flatten_metrics(v: &Value) -> Map<String, Value> {
     fn walk(prefix: &str, v: &Value, out: &mut Map<String, Value>) {

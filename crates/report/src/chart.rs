@@ -1,0 +1,559 @@
+//! Charts: a [`Chart`] (line chart over a linear or log₂ axis, or grouped bars) is laid out
+//! once into drawing [`Prim`]itives on a fixed canvas; `svg` and `raster` each draw the same
+//! primitives, so the SVG and the PNG of a figure show the same thing.
+
+/// Canvas size in pixels (the PNG's size; the SVG's view box).
+pub const WIDTH: u32 = 900;
+pub const HEIGHT: u32 = 440;
+/// Plot area: left, top, right and bottom edges (room for tick labels and the legend).
+const PLOT: (f64, f64, f64, f64) = (90.0, 44.0, 560.0, 380.0);
+
+/// An sRGB colour.
+pub type Rgb = [u8; 3];
+pub const BLACK: Rgb = [0, 0, 0];
+pub const GREY: Rgb = [160, 160, 160];
+const LIGHT: Rgb = [225, 225, 225];
+/// Series colours, assigned in order (Okabe–Ito's colour-blind-safe palette).
+const PALETTE: [Rgb; 8] = [
+    [0, 114, 178],
+    [213, 94, 0],
+    [0, 158, 115],
+    [204, 121, 167],
+    [230, 159, 0],
+    [86, 180, 233],
+    [0, 0, 0],
+    [240, 228, 66],
+];
+
+pub fn palette(i: usize) -> Rgb {
+    PALETTE[i % PALETTE.len()]
+}
+
+/// How text is placed relative to its point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Anchor {
+    Start,
+    Middle,
+    End,
+}
+
+/// What both back ends draw.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Prim {
+    Line {
+        points: Vec<(f64, f64)>,
+        color: Rgb,
+        width: f64,
+        dashed: bool,
+    },
+    Rect {
+        x: f64,
+        y: f64,
+        w: f64,
+        h: f64,
+        color: Rgb,
+    },
+    Dot {
+        x: f64,
+        y: f64,
+        r: f64,
+        color: Rgb,
+    },
+    /// Text whose baseline starts, is centred or ends at (x, y); `vertical` turns it a
+    /// quarter anticlockwise about (x, y).
+    Text {
+        x: f64,
+        y: f64,
+        size: f64,
+        anchor: Anchor,
+        vertical: bool,
+        color: Rgb,
+        text: String,
+    },
+}
+
+/// An axis's mapping from data to the plot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scale {
+    Linear,
+    Log2,
+    Log10,
+}
+
+/// One line of a line chart.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    pub name: String,
+    /// (x, y), drawn in x order.
+    pub points: Vec<(f64, f64)>,
+    pub color: Rgb,
+    pub dashed: bool,
+}
+
+/// One set of bars of a bar chart (one value per category; None leaves a gap).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BarSeries {
+    pub name: String,
+    pub values: Vec<Option<f64>>,
+    pub color: Rgb,
+}
+
+/// What a chart shows.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Body {
+    Lines {
+        x_scale: Scale,
+        y_scale: Scale,
+        /// Tick positions on x (data units) with their labels.
+        x_ticks: Vec<(f64, String)>,
+        series: Vec<Series>,
+        /// Grey vertical reference line (x, label).
+        marker: Option<(f64, String)>,
+    },
+    Bars {
+        categories: Vec<String>,
+        series: Vec<BarSeries>,
+        /// Horizontal reference marks over one category: (category index, value, label).
+        marks: Vec<(usize, f64, String)>,
+    },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Chart {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub body: Body,
+}
+
+impl Chart {
+    /// True when the chart has no data to draw.
+    pub fn is_empty(&self) -> bool {
+        match &self.body {
+            Body::Lines { series, .. } => series.iter().all(|s| s.points.is_empty()),
+            Body::Bars { series, .. } => {
+                series.iter().all(|s| s.values.iter().all(Option::is_none))
+            }
+        }
+    }
+
+    /// Lay the chart out on the canvas.
+    pub fn layout(&self) -> Vec<Prim> {
+        let mut out = Vec::new();
+        let (l, t, r, b) = PLOT;
+        text(
+            &mut out,
+            (WIDTH as f64) / 2.0,
+            24.0,
+            15.0,
+            Anchor::Middle,
+            &self.title,
+        );
+        text(
+            &mut out,
+            (l + r) / 2.0,
+            b + 46.0,
+            13.0,
+            Anchor::Middle,
+            &self.x_label,
+        );
+        out.push(Prim::Text {
+            x: 20.0,
+            y: (t + b) / 2.0,
+            size: 13.0,
+            anchor: Anchor::Middle,
+            vertical: true,
+            color: BLACK,
+            text: self.y_label.clone(),
+        });
+        let legend: Vec<(String, Rgb, bool)> = match &self.body {
+            Body::Lines {
+                x_scale,
+                y_scale,
+                x_ticks,
+                series,
+                marker,
+            } => {
+                let xs = x_ticks
+                    .iter()
+                    .map(|p| p.0)
+                    .chain(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+                let x_axis = Axis::fit(*x_scale, xs, l, r, false);
+                let ys = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+                let y_axis = Axis::fit(*y_scale, ys, b, t, true);
+                y_grid(&mut out, &y_axis);
+                for (x, label) in x_ticks {
+                    let px = x_axis.map(*x);
+                    line(&mut out, vec![(px, b), (px, b + 5.0)], BLACK, 1.0, false);
+                    text(&mut out, px, b + 20.0, 11.0, Anchor::Middle, label);
+                }
+                if let Some((x, label)) = marker {
+                    let px = x_axis.map(*x);
+                    line(&mut out, vec![(px, t), (px, b)], GREY, 2.0, false);
+                    text(&mut out, px + 4.0, t + 14.0, 11.0, Anchor::Start, label);
+                }
+                for s in series {
+                    let mut pts: Vec<(f64, f64)> = s
+                        .points
+                        .iter()
+                        .map(|&(x, y)| (x_axis.map(x), y_axis.map(y)))
+                        // A value the axis cannot place (NaN, infinite, ≤ 0 on a log axis)
+                        // is not drawn.
+                        .filter(|(x, y)| x.is_finite() && y.is_finite())
+                        .collect();
+                    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    if pts.len() > 1 {
+                        line(&mut out, pts.clone(), s.color, 2.0, s.dashed);
+                    }
+                    for (x, y) in pts {
+                        out.push(Prim::Dot {
+                            x,
+                            y,
+                            r: 3.5,
+                            color: s.color,
+                        });
+                    }
+                }
+                series
+                    .iter()
+                    .map(|s| (s.name.clone(), s.color, s.dashed))
+                    .collect()
+            }
+            Body::Bars {
+                categories,
+                series,
+                marks,
+            } => {
+                let ys = series
+                    .iter()
+                    .flat_map(|s| s.values.iter().flatten().copied())
+                    .chain(marks.iter().map(|m| m.1));
+                let y_axis = Axis::fit(Scale::Linear, ys, b, t, true);
+                y_grid(&mut out, &y_axis);
+                let slot = (r - l) / categories.len().max(1) as f64;
+                let bar = slot * 0.8 / series.len().max(1) as f64;
+                for (i, c) in categories.iter().enumerate() {
+                    let x0 = l + slot * i as f64 + slot * 0.1;
+                    text(&mut out, x0 + slot * 0.4, b + 18.0, 11.0, Anchor::Middle, c);
+                    for (j, s) in series.iter().enumerate() {
+                        let value = s.values.get(i).copied().flatten();
+                        if let Some(v) = value.filter(|v| v.is_finite()) {
+                            let y = y_axis.map(v);
+                            out.push(Prim::Rect {
+                                x: x0 + bar * j as f64,
+                                y,
+                                w: bar,
+                                h: b - y,
+                                color: s.color,
+                            });
+                        }
+                    }
+                }
+                for (i, v, label) in marks {
+                    let x0 = l + slot * *i as f64;
+                    let y = y_axis.map(*v);
+                    line(&mut out, vec![(x0, y), (x0 + slot, y)], BLACK, 2.0, true);
+                    text(
+                        &mut out,
+                        x0 + slot + 4.0,
+                        y + 4.0,
+                        11.0,
+                        Anchor::Start,
+                        label,
+                    );
+                }
+                series
+                    .iter()
+                    .map(|s| (s.name.clone(), s.color, false))
+                    .collect()
+            }
+        };
+        if self.is_empty() {
+            text(
+                &mut out,
+                (l + r) / 2.0,
+                (t + b) / 2.0,
+                14.0,
+                Anchor::Middle,
+                "no data in these results",
+            );
+        }
+        // Axes on top of the data.
+        line(&mut out, vec![(l, t), (l, b), (r, b)], BLACK, 1.0, false);
+        for (i, (name, color, dashed)) in legend.iter().enumerate() {
+            let y = t + 10.0 + 18.0 * i as f64;
+            line(
+                &mut out,
+                vec![(r + 14.0, y), (r + 40.0, y)],
+                *color,
+                2.5,
+                *dashed,
+            );
+            text(&mut out, r + 46.0, y + 4.0, 11.0, Anchor::Start, name);
+        }
+        out
+    }
+}
+
+fn text(out: &mut Vec<Prim>, x: f64, y: f64, size: f64, anchor: Anchor, s: &str) {
+    out.push(Prim::Text {
+        x,
+        y,
+        size,
+        anchor,
+        vertical: false,
+        color: BLACK,
+        text: s.to_string(),
+    });
+}
+
+fn line(out: &mut Vec<Prim>, points: Vec<(f64, f64)>, color: Rgb, width: f64, dashed: bool) {
+    out.push(Prim::Line {
+        points,
+        color,
+        width,
+        dashed,
+    });
+}
+
+/// Horizontal grid lines and labels at the y axis's ticks.
+fn y_grid(out: &mut Vec<Prim>, y: &Axis) {
+    let (l, _, r, _) = PLOT;
+    for v in y.ticks() {
+        let py = y.map(v);
+        line(out, vec![(l, py), (r, py)], LIGHT, 1.0, false);
+        text(out, l - 6.0, py + 4.0, 11.0, Anchor::End, &short_number(v));
+    }
+}
+
+/// A data range mapped onto pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Axis {
+    scale: Scale,
+    lo: f64,
+    hi: f64,
+    /// Pixel positions of `lo` and `hi`.
+    p0: f64,
+    p1: f64,
+}
+
+impl Axis {
+    /// Fit the finite (and, on a log scale, positive) values; `from_zero` starts a linear
+    /// axis at 0. An empty range becomes [0, 1] (or one decade).
+    fn fit(
+        scale: Scale,
+        values: impl Iterator<Item = f64>,
+        p0: f64,
+        p1: f64,
+        from_zero: bool,
+    ) -> Axis {
+        let usable = |v: &f64| v.is_finite() && (scale == Scale::Linear || *v > 0.0);
+        let (mut lo, mut hi) = values
+            .filter(usable)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+        if lo > hi {
+            (lo, hi) = if scale == Scale::Linear {
+                (0.0, 1.0)
+            } else {
+                (1.0, 10.0)
+            };
+        }
+        match scale {
+            Scale::Linear => {
+                if from_zero {
+                    lo = lo.min(0.0);
+                }
+                let step = nice_step((hi - lo).max(hi.abs() * 1e-9).max(1e-300) / 5.0);
+                lo = (lo / step).floor() * step;
+                hi = ((hi / step).ceil() * step).max(lo + step);
+            }
+            Scale::Log2 => {
+                lo = lo.log2().floor().exp2();
+                hi = hi.log2().ceil().exp2().max(lo * 2.0);
+            }
+            Scale::Log10 => {
+                lo = 10f64.powf(lo.log10().floor());
+                hi = 10f64.powf(hi.log10().ceil()).max(lo * 10.0);
+            }
+        }
+        Axis {
+            scale,
+            lo,
+            hi,
+            p0,
+            p1,
+        }
+    }
+
+    fn unit(&self, v: f64) -> f64 {
+        match self.scale {
+            Scale::Linear => v,
+            Scale::Log2 => v.log2(),
+            Scale::Log10 => v.log10(),
+        }
+    }
+
+    fn map(&self, v: f64) -> f64 {
+        let (a, b) = (self.unit(self.lo), self.unit(self.hi));
+        self.p0 + (self.unit(v) - a) / (b - a) * (self.p1 - self.p0)
+    }
+
+    fn ticks(&self) -> Vec<f64> {
+        match self.scale {
+            Scale::Linear => {
+                let step = nice_step((self.hi - self.lo) / 5.0);
+                let n = ((self.hi - self.lo) / step).round() as usize;
+                (0..=n).map(|i| self.lo + step * i as f64).collect()
+            }
+            Scale::Log2 | Scale::Log10 => {
+                let base = if self.scale == Scale::Log2 { 2.0 } else { 10.0 };
+                let mut v = self.lo;
+                let mut out = Vec::new();
+                while v <= self.hi * (1.0 + 1e-9) {
+                    out.push(v);
+                    v *= base;
+                }
+                out
+            }
+        }
+    }
+}
+
+/// 1, 2 or 5 × 10^k, the smallest at least `raw`.
+fn nice_step(raw: f64) -> f64 {
+    let mag = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| *s >= raw * (1.0 - 1e-9))
+        .unwrap_or(10.0 * mag)
+}
+
+/// A tick label: `0`, `0.25`, `12`, `1.5k`, `3M`, `2G`, `1e-5`.
+pub fn short_number(v: f64) -> String {
+    let a = v.abs();
+    let trim = |s: String| {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
+    if a == 0.0 {
+        return "0".into();
+    }
+    for (div, suffix) in [(1e9, "G"), (1e6, "M"), (1e3, "k")] {
+        if a >= div {
+            return format!("{}{suffix}", trim(format!("{:.2}", v / div)));
+        }
+    }
+    if a >= 1e-3 {
+        return trim(format!("{v:.4}"));
+    }
+    format!("{v:.0e}")
+}
+
+/// A byte size as the papers print it: `512 KB`, `1.5 MB`, `16 MB`.
+pub fn bytes_label(b: f64) -> String {
+    if b >= 1048576.0 {
+        format!("{} MB", short_number(b / 1048576.0))
+    } else {
+        format!("{} KB", short_number(b / 1024.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axes_map_ends_and_round_outwards() {
+        let a = Axis::fit(Scale::Linear, [3.0, 87.0].into_iter(), 100.0, 0.0, true);
+        assert_eq!((a.lo, a.hi), (0.0, 100.0));
+        assert_eq!(a.map(0.0), 100.0);
+        assert_eq!(a.map(50.0), 50.0);
+        assert_eq!(a.ticks(), [0.0, 20.0, 40.0, 60.0, 80.0, 100.0]);
+        let l = Axis::fit(Scale::Log2, [1.0, 100.0].into_iter(), 0.0, 70.0, false);
+        assert_eq!((l.lo, l.hi), (1.0, 128.0));
+        assert_eq!(l.map(8.0), 30.0);
+        let d = Axis::fit(Scale::Log10, [0.02, 3.0].into_iter(), 0.0, 1.0, false);
+        assert_eq!(d.ticks().len(), 4);
+        // Nothing to fit: a usable default, never a NaN.
+        let e = Axis::fit(Scale::Log10, [-1.0, f64::NAN].into_iter(), 0.0, 1.0, false);
+        assert!(e.map(5.0).is_finite());
+    }
+
+    /// A one-series dashed line chart over a log₂ x axis.
+    fn line_chart(y_scale: Scale, points: Vec<(f64, f64)>, x_ticks: Vec<(f64, String)>) -> Chart {
+        Chart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            body: Body::Lines {
+                x_scale: Scale::Log2,
+                y_scale,
+                x_ticks,
+                series: vec![Series {
+                    name: "s".into(),
+                    points,
+                    color: palette(0),
+                    dashed: true,
+                }],
+                marker: Some((2.0, "m".into())),
+            },
+        }
+    }
+
+    #[test]
+    fn values_the_axes_cannot_place_are_not_drawn() {
+        let points = vec![
+            (1.0, 1.0),
+            (2.0, 0.0),
+            (f64::INFINITY, 3.0),
+            (4.0, f64::NAN),
+        ];
+        let prims = line_chart(Scale::Log10, points, vec![]).layout();
+        let dots = prims
+            .iter()
+            .filter(|p| matches!(p, Prim::Dot { .. }))
+            .count();
+        assert_eq!(dots, 1);
+        // And both back ends finish.
+        assert!(crate::svg::render(&prims).contains("<circle"));
+        assert!(crate::raster::png(&prims).is_ok());
+    }
+
+    #[test]
+    fn labels_are_short() {
+        assert_eq!(short_number(1_500_000.0), "1.5M");
+        assert_eq!(short_number(0.25), "0.25");
+        assert_eq!(short_number(20.0), "20");
+        assert_eq!(bytes_label(524288.0), "512 KB");
+        assert_eq!(bytes_label(1.5 * 1048576.0), "1.5 MB");
+    }
+
+    #[test]
+    fn line_chart_lays_out_every_point_and_legend_entry() {
+        let ticks = vec![(1.0, "1".into()), (4.0, "4".into())];
+        let c = line_chart(Scale::Linear, vec![(4.0, 2.0), (1.0, 1.0)], ticks);
+        assert!(!c.is_empty());
+        let prims = c.layout();
+        let dots: Vec<_> = prims
+            .iter()
+            .filter(|p| matches!(p, Prim::Dot { .. }))
+            .collect();
+        assert_eq!(dots.len(), 2);
+        assert!(
+            prims
+                .iter()
+                .any(|p| matches!(p, Prim::Line { dashed: true, .. }))
+        );
+        assert!(
+            prims
+                .iter()
+                .any(|p| matches!(p, Prim::Text { text, .. } if text == "s"))
+        );
+    }
+}

@@ -1,0 +1,200 @@
+//! The HTML page: one section per paper, each figure inline as SVG (with links to its SVG and
+//! PNG files) and each table with the paper's row above ours. Every cell of ours carries the
+//! column it came from, the points it averages and the exact value (`data-col`,
+//! `data-points`, `data-value`), so the page can be checked against the merged table.
+
+use crate::svg::escape;
+use crate::table::Row;
+use crate::{FIGURE_DIR, Figure, Results};
+
+/// What a section holds, in order.
+#[derive(Clone, Debug)]
+pub enum Item {
+    Figure(Figure),
+    /// A table's HTML (built with the helpers below).
+    Table(String),
+}
+
+/// One paper's part of the report.
+#[derive(Clone, Debug, Default)]
+pub struct Section {
+    pub title: String,
+    /// HTML paragraph(s) under the title.
+    pub intro: String,
+    pub items: Vec<Item>,
+    /// The section's figures (also in `items`), for the files.
+    pub figures: Vec<Figure>,
+}
+
+impl Section {
+    pub fn figure(&mut self, f: Figure) {
+        self.figures.push(f.clone());
+        self.items.push(Item::Figure(f));
+    }
+
+    pub fn table(&mut self, html: String) {
+        self.items.push(Item::Table(html));
+    }
+}
+
+/// A value of ours: the mean of `col` over `points`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Val {
+    pub col: String,
+    pub points: Vec<usize>,
+    pub value: f64,
+}
+
+impl Val {
+    /// The mean of `col` over `rows` (None without rows or where a row lacks it).
+    pub fn mean(rows: &[&Row], col: &str) -> Option<Val> {
+        if rows.is_empty() {
+            return None;
+        }
+        let mut sum = 0.0;
+        for r in rows {
+            sum += r.num(col)?;
+        }
+        Some(Val {
+            col: col.to_string(),
+            points: rows.iter().map(|r| r.point).collect(),
+            value: sum / rows.len() as f64,
+        })
+    }
+}
+
+/// A cell of ours, shown as `show(value)`; `missing` where there is none.
+pub fn td_val(v: &Option<Val>, show: impl Fn(f64) -> String, missing: &str) -> String {
+    match v {
+        Some(v) => {
+            let points: Vec<String> = v.points.iter().map(|p| p.to_string()).collect();
+            format!(
+                "<td class=\"ours\" data-col=\"{}\" data-points=\"{}\" data-value=\"{}\">{}</td>",
+                escape(&v.col),
+                points.join(" "),
+                v.value,
+                escape(&show(v.value))
+            )
+        }
+        None => format!("<td class=\"missing\">{}</td>", escape(missing)),
+    }
+}
+
+/// A plain cell.
+pub fn td(s: &str) -> String {
+    format!("<td>{}</td>", escape(s))
+}
+
+/// A header cell spanning `span` columns.
+pub fn th(s: &str, span: usize) -> String {
+    if span > 1 {
+        format!("<th colspan=\"{span}\">{}</th>", escape(s))
+    } else {
+        format!("<th>{}</th>", escape(s))
+    }
+}
+
+/// `v` with `decimals` digits after the point.
+pub fn fixed(v: f64, decimals: usize) -> String {
+    format!("{v:.decimals$}")
+}
+
+/// A table: caption, header rows (already `<th>` cells) and body rows (already `<td>` cells,
+/// with a row class: `paper` or `ours`).
+pub fn table(id: &str, caption: &str, head: &[String], body: &[(String, String)]) -> String {
+    let mut s = format!(
+        "<table id=\"{}\">\n<caption>{caption}</caption>\n<thead>\n",
+        escape(id)
+    );
+    for h in head {
+        s.push_str(&format!("<tr>{h}</tr>\n"));
+    }
+    s.push_str("</thead>\n<tbody>\n");
+    for (class, cells) in body {
+        s.push_str(&format!("<tr class=\"{class}\">{cells}</tr>\n"));
+    }
+    s.push_str("</tbody>\n</table>\n");
+    s
+}
+
+const CSS: &str =
+    "body{font-family:sans-serif;max-width:70em;margin:2em auto;padding:0 1em;color:#222}
+h1,h2,h3{font-weight:600}figure{margin:1.5em 0}figcaption{font-size:.95em;margin:.4em 0}
+.notes{font-size:.9em;color:#444}table{border-collapse:collapse;margin:1.5em 0;font-size:.9em}
+caption{text-align:left;padding:.3em 0;font-size:.95em}
+th,td{border:1px solid #ccc;padding:.2em .5em;text-align:right}th{background:#f2f2f2;text-align:center}
+td:first-child,td:nth-child(2){text-align:left}tr.paper td{color:#555}
+tr.ours td{background:#eef5fb}td.missing{color:#b00;font-style:italic}
+.files{font-size:.85em}";
+
+/// The whole page.
+pub fn page(r: &Results, sections: &[Section], svgs: &[(String, String, Vec<u8>)]) -> String {
+    let mut s = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>rtsim report</title>\n<style>\n",
+    );
+    s.push_str(CSS);
+    s.push_str("\n</style>\n</head>\n<body>\n<h1>rtsim report</h1>\n");
+    let mut counts: Vec<String> = Vec::new();
+    for a in crate::Arch::ALL {
+        let n = r.of(a).count();
+        if n > 0 {
+            counts.push(format!("{n} × <code>{}</code>", a.preset()));
+        }
+    }
+    s.push_str(&format!(
+        "<p>Results: <code>{}</code>, {} finished points ({}). Rows marked <i>paper</i> are the published values; \
+         rows marked <i>rtsim</i> are ours (hover a value for the column it came from). \
+         <span class=\"missing\">Red italics</span>: not in these results.</p>\n",
+        escape(&r.source.display().to_string()),
+        r.rows.len(),
+        if counts.is_empty() { "none".to_string() } else { counts.join(", ") }
+    ));
+    for sec in sections {
+        s.push_str(&format!("<h2>{}</h2>\n{}\n", escape(&sec.title), sec.intro));
+        for item in &sec.items {
+            match item {
+                Item::Table(t) => s.push_str(t),
+                Item::Figure(f) => {
+                    let svg = svgs
+                        .iter()
+                        .find(|(n, _, _)| n == f.name)
+                        .map(|(_, svg, _)| svg.as_str())
+                        .unwrap_or("");
+                    s.push_str(&format!(
+                        "<figure id=\"{0}\">\n{svg}<figcaption>{1} <span class=\"files\">(<a href=\"{2}/{0}.svg\">SVG</a>, <a href=\"{2}/{0}.png\">PNG</a>)</span></figcaption>\n<div class=\"notes\">{3}</div>\n</figure>\n",
+                        f.name, f.caption, FIGURE_DIR, f.notes
+                    ));
+                }
+            }
+        }
+    }
+    s.push_str("</body>\n</html>\n");
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::Cell;
+
+    #[test]
+    fn our_cells_carry_their_source_and_exact_value() {
+        let mut a = Row::default();
+        a.point = 2;
+        a.values.insert("x".into(), Cell::Num(1.0));
+        let mut b = Row::default();
+        b.point = 5;
+        b.values.insert("x".into(), Cell::Num(2.5));
+        let v = Val::mean(&[&a, &b], "x");
+        let cell = td_val(&v, |x| fixed(x, 1), "not run");
+        assert_eq!(
+            cell,
+            "<td class=\"ours\" data-col=\"x\" data-points=\"2 5\" data-value=\"1.75\">1.8</td>"
+        );
+        assert_eq!(Val::mean(&[&a], "y"), None);
+        assert_eq!(
+            td_val(&None, |x| x.to_string(), "not run"),
+            "<td class=\"missing\">not run</td>"
+        );
+    }
+}

@@ -1,0 +1,216 @@
+//! Reports: the papers' tables and figures drawn from a sweep's merged results, with the
+//! published values beside ours.
+//!
+//! Principal types:
+//!
+//! - [`table::Table`]: a merged sweep table (`results.jsonl` or `results.csv`) read back, each
+//!   row completed from its point's `config.resolved.toml` (the architecture, scene and sizes
+//!   that did not vary are not columns of the table).
+//! - [`Results`]: the table checked — every row's architecture known ([`Arch`]), every column
+//!   the presentations read present — so the builders below never meet a missing value.
+//! - [`paper`]: the published values, cited row by row.
+//! - [`chart::Chart`]: a line or bar chart, laid out once into primitives that [`svg`] and
+//!   [`raster`] both draw (the PNG's text uses an embedded bitmap font: no system fonts).
+//! - [`strata`] and [`sgrt`]: one builder per table and figure of each paper.
+//! - [`Report`]: the HTML page and every figure's SVG and PNG, built by [`build`]; the CLI
+//!   writes them as one output set. The same input gives byte-identical files.
+
+pub mod chart;
+pub mod html;
+pub mod paper;
+pub mod raster;
+pub mod sgrt;
+pub mod strata;
+pub mod svg;
+pub mod table;
+
+use std::path::{Path, PathBuf};
+use table::{Row, Table};
+
+/// Why a report cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("{path}: {message}")]
+    Input { path: PathBuf, message: String },
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("encoding figure {name}: {source}")]
+    Png {
+        name: String,
+        source: png::EncodingError,
+    },
+}
+
+impl ReportError {
+    pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        ReportError::Input {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        ReportError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// The architectures a report knows (`arch.preset`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Arch {
+    TraxBaseline,
+    /// STRaTA on TRaX: the TRaX report's columns plus the stream memory's.
+    Strata,
+    Sgrt,
+    SgrtSptrv,
+    Sgrt1,
+}
+
+impl Arch {
+    pub const ALL: [Arch; 5] = [
+        Arch::TraxBaseline,
+        Arch::Strata,
+        Arch::Sgrt,
+        Arch::SgrtSptrv,
+        Arch::Sgrt1,
+    ];
+
+    pub fn preset(self) -> &'static str {
+        match self {
+            Arch::TraxBaseline => "trax-baseline",
+            Arch::Strata => "strata",
+            Arch::Sgrt => "sgrt",
+            Arch::SgrtSptrv => "sgrt-sptrv",
+            Arch::Sgrt1 => "sgrt-1",
+        }
+    }
+
+    /// Runs on the TRaX chip (the baseline or STRaTA), reported under `trax.*`.
+    pub fn is_trax(self) -> bool {
+        matches!(self, Arch::TraxBaseline | Arch::Strata)
+    }
+}
+
+/// The column naming a row's architecture.
+pub const ARCH_COLUMN: &str = "arch.preset";
+/// The column naming a row's scene.
+pub const SCENE_COLUMN: &str = "scene.name";
+
+/// A checked table: rows with their architecture.
+#[derive(Clone, Debug)]
+pub struct Results {
+    pub source: PathBuf,
+    pub rows: Vec<(Arch, Row)>,
+}
+
+impl Results {
+    /// Check that every row names a known architecture and has every column the report
+    /// reads for it (errors name the file, the point and the column).
+    pub fn check(table: Table) -> Result<Results, ReportError> {
+        let mut rows = Vec::with_capacity(table.rows.len());
+        for row in table.rows {
+            let err =
+                |m: String| ReportError::input(&table.source, format!("point {}: {m}", row.point));
+            let Some(name) = row.text(ARCH_COLUMN) else {
+                return Err(err(format!(
+                    "no column `{ARCH_COLUMN}` (neither in the table nor in the point's {} beside it)",
+                    table::RESOLVED
+                )));
+            };
+            let Some(arch) = Arch::ALL.iter().copied().find(|a| a.preset() == name) else {
+                let known: Vec<&str> = Arch::ALL.iter().map(|a| a.preset()).collect();
+                return Err(err(format!(
+                    "column `{ARCH_COLUMN}` is `{name}`, an architecture the report does not know (it knows {})",
+                    known.join(", ")
+                )));
+            };
+            let texts: &[&str] = if arch.is_trax() {
+                &[SCENE_COLUMN]
+            } else {
+                &[SCENE_COLUMN, sgrt::KIND]
+            };
+            for col in texts {
+                if row.text(col).is_none() {
+                    return Err(err(format!("no column `{col}` (needed for arch {name})")));
+                }
+            }
+            let required: &[&str] = if arch.is_trax() {
+                strata::REQUIRED
+            } else {
+                sgrt::REQUIRED
+            };
+            let size = strata::size_column(arch);
+            for col in required.iter().chain(size.as_ref()) {
+                if row.num(col).is_none() {
+                    return Err(err(format!(
+                        "no numeric column `{col}` (needed for arch {name})"
+                    )));
+                }
+            }
+            rows.push((arch, row));
+        }
+        Ok(Results {
+            source: table.source,
+            rows,
+        })
+    }
+
+    /// Rows of one architecture.
+    pub fn of(&self, arch: Arch) -> impl Iterator<Item = &Row> {
+        self.rows
+            .iter()
+            .filter(move |(a, _)| *a == arch)
+            .map(|(_, r)| r)
+    }
+}
+
+/// One figure: its file stem, caption (HTML) and chart.
+#[derive(Clone, Debug)]
+pub struct Figure {
+    pub name: &'static str,
+    pub caption: String,
+    pub chart: chart::Chart,
+    /// HTML shown under the figure (notes, the values the paper's text states).
+    pub notes: String,
+}
+
+/// A finished report.
+#[derive(Clone, Debug)]
+pub struct Report {
+    pub html: String,
+    /// (file stem, SVG text, PNG bytes) of every figure.
+    pub figures: Vec<(String, String, Vec<u8>)>,
+}
+
+/// Where the figures go, relative to the HTML page.
+pub const FIGURE_DIR: &str = "figures";
+/// The page's file name.
+pub const PAGE: &str = "report.html";
+
+/// Read `results` (a sweep directory or its merged table) and draw the report.
+pub fn build(results: &Path) -> Result<Report, ReportError> {
+    let checked = Results::check(Table::load(results)?)?;
+    render(&checked)
+}
+
+/// Draw the report of checked results.
+pub fn render(r: &Results) -> Result<Report, ReportError> {
+    let strata = strata::sections(r);
+    let sgrt = sgrt::sections(r);
+    let mut figures = Vec::new();
+    for f in strata.figures.iter().chain(&sgrt.figures) {
+        let prims = f.chart.layout();
+        let png = raster::png(&prims).map_err(|source| ReportError::Png {
+            name: f.name.to_string(),
+            source,
+        })?;
+        figures.push((f.name.to_string(), svg::render(&prims), png));
+    }
+    let html = html::page(r, &[strata, sgrt], &figures);
+    Ok(Report { html, figures })
+}

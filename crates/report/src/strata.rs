@@ -1,0 +1,792 @@
+//! The STRaTA paper's presentations: Figures 1, 5, 6 and 7, Tables 1 and 3, from rows of
+//! `trax-baseline` and `strata` (both report the TRaX chip's columns, `trax.*`).
+//!
+//! Which runs each shows:
+//! - Tables 1 and 3 and Figure 1 (one value per scene): per architecture and scene, the run at
+//!   the paper's 4 MB L2 (baseline) or stream memory (STRaTA) with the most TMs.
+//! - Figures 5 and 6 (against L2/stream size): one curve per architecture, scene and TM count
+//!   with at least two sizes.
+//! - Figure 7 (against TMs): one curve per architecture, scene and size with at least two TM
+//!   counts.
+
+use crate::chart::{self, BarSeries, Body, Chart, Scale, Series, bytes_label, palette};
+use crate::html::{Section, Val, fixed, table, td, td_val, th};
+use crate::paper::{self, DramCols};
+use crate::table::Row;
+use crate::{Arch, Figure, Results, SCENE_COLUMN};
+use std::collections::BTreeMap;
+
+/// TMs on the chip.
+pub const TMS: &str = "trax.chip.tms";
+/// Table 1's columns, in its order.
+pub const DRAM_ACCESSES: &str = "trax.dram.accesses";
+pub const ROW_HIT_RATE: &str = "trax.dram.row_hit_rate";
+pub const READ_LATENCY: &str = "trax.dram.average_read_latency_core_cycles";
+pub const MS_PER_FRAME: &str = "trax.ms_per_frame";
+pub const DRAM_ENERGY: &str = "trax.energy.dram_j";
+/// Table 3's columns.
+pub const RF_ENERGY: &str = "trax.energy.register_file_j";
+pub const ICACHE_ENERGY: &str = "trax.energy.icache_j";
+/// Figure 1's components (column, label in the paper's abbreviations: I$ instruction cache,
+/// RF register file, XUs execution units), and the total they add up to.
+pub const COMPONENTS: [(&str, &str); 7] = [
+    (DRAM_ENERGY, "DRAM"),
+    ("trax.energy.l2_j", "L2"),
+    ("trax.energy.l1_j", "L1"),
+    (ICACHE_ENERGY, "I$"),
+    (RF_ENERGY, "RF"),
+    ("trax.energy.execution_units_j", "XUs"),
+    ("trax.energy.local_memory_j", "Local"),
+];
+pub const TOTAL_ENERGY: &str = "trax.energy.total_j";
+pub const L2_ENERGY: &str = "trax.energy.l2_j";
+/// Figure 5 and the L1 hit rates its caption states.
+pub const L1_MISSES: &str = "trax.l1.misses";
+pub const L1_HIT_RATE: &str = "trax.l1.hit_rate";
+/// Figure 7: frames per second.
+pub const FPS: &str = "trax.fps";
+
+/// The stream memory's accesses on STRaTA rows: the first alternative whose columns are all
+/// present, summed. The STRaTA chip's report is not written yet; these are the names it is
+/// expected to use (the TRaX report's `trax.` prefix, the stream memory's `StreamStats`
+/// field names), and the one place to change if it uses others.
+pub const STREAM_ACCESSES: [&[&str]; 3] = [
+    &["trax.stream.accesses"],
+    &["trax.stream.pushes", "trax.stream.pops"],
+    &["strata.stream.pushes", "strata.stream.pops"],
+];
+/// The stream memory's energy on STRaTA rows (first present), as above.
+pub const STREAM_ENERGY: [&str; 2] = ["trax.energy.stream_j", "strata.energy.stream_j"];
+
+/// Columns every TRaX-chip row must have.
+pub const REQUIRED: &[&str] = &[
+    TMS,
+    DRAM_ACCESSES,
+    ROW_HIT_RATE,
+    READ_LATENCY,
+    MS_PER_FRAME,
+    DRAM_ENERGY,
+    RF_ENERGY,
+    ICACHE_ENERGY,
+    "trax.energy.l2_j",
+    "trax.energy.l1_j",
+    "trax.energy.execution_units_j",
+    "trax.energy.local_memory_j",
+    TOTAL_ENERGY,
+    L1_MISSES,
+    L1_HIT_RATE,
+    FPS,
+];
+
+/// The size Figures 5–6 vary: the L2's (baseline) or the stream memory's (STRaTA), from the
+/// point's resolved configuration.
+pub fn size_column(arch: Arch) -> Option<&'static str> {
+    match arch {
+        Arch::TraxBaseline => Some("arch.trax.l2.size_bytes"),
+        Arch::Strata => Some("arch.strata.stream.bytes"),
+        _ => None,
+    }
+}
+
+fn label(arch: Arch) -> &'static str {
+    if arch == Arch::Strata {
+        "STRaTA"
+    } else {
+        "baseline"
+    }
+}
+
+fn scene(r: &Row) -> &str {
+    r.text(SCENE_COLUMN).unwrap_or("?")
+}
+
+fn size(arch: Arch, r: &Row) -> f64 {
+    size_column(arch).and_then(|c| r.num(c)).unwrap_or(f64::NAN)
+}
+
+fn num(r: &Row, col: &str) -> f64 {
+    r.num(col).unwrap_or(f64::NAN)
+}
+
+/// Stream accesses of a STRaTA row, with the columns they came from.
+pub fn stream_accesses(r: &Row) -> Option<f64> {
+    STREAM_ACCESSES
+        .iter()
+        .find(|cols| cols.iter().all(|c| r.num(c).is_some()))
+        .map(|cols| cols.iter().map(|c| num(r, c)).sum())
+}
+
+/// Stream memory energy of a STRaTA row.
+pub fn stream_energy(r: &Row) -> Option<f64> {
+    STREAM_ENERGY.iter().find_map(|c| r.num(c))
+}
+
+/// Per scene, the run the one-value-per-scene presentations show (module docs).
+pub fn table_rows(r: &Results, arch: Arch) -> BTreeMap<String, &Row> {
+    let mut best: BTreeMap<String, &Row> = BTreeMap::new();
+    let key = |row: &Row| {
+        (
+            size(arch, row) == paper::STRATA_TABLE_SIZE_BYTES,
+            num(row, TMS) as i64,
+            std::cmp::Reverse(row.point),
+        )
+    };
+    for row in r.of(arch) {
+        let e = best.entry(scene(row).to_string()).or_insert(row);
+        if key(row) > key(e) {
+            *e = row;
+        }
+    }
+    best
+}
+
+/// Curves: rows grouped by (arch, scene, `fixed`), x = `vary`, kept where ≥ 2 x values.
+fn curves(
+    r: &Results,
+    x_of: impl Fn(Arch, &Row) -> f64,
+    fixed_of: impl Fn(Arch, &Row) -> f64,
+) -> Vec<(Arch, String, f64, Vec<&Row>)> {
+    let mut groups: BTreeMap<(Arch, String, u64), Vec<&Row>> = BTreeMap::new();
+    for (a, row) in r.rows.iter().filter(|(a, _)| a.is_trax()) {
+        groups
+            .entry((*a, scene(row).to_string(), fixed_of(*a, row).to_bits()))
+            .or_default()
+            .push(row);
+    }
+    groups
+        .into_iter()
+        .filter_map(|((a, s, f), mut rows)| {
+            rows.sort_by(|p, q| {
+                x_of(a, p)
+                    .total_cmp(&x_of(a, q))
+                    .then(p.point.cmp(&q.point))
+            });
+            rows.dedup_by(|p, q| x_of(a, p) == x_of(a, q));
+            (rows.len() >= 2).then(|| (a, s, f64::from_bits(f), rows))
+        })
+        .collect()
+}
+
+fn size_ticks() -> Vec<(f64, String)> {
+    paper::STRATA_SIZES_BYTES
+        .iter()
+        .map(|b| (*b, bytes_label(*b)))
+        .collect()
+}
+
+fn not_run(what: &str) -> String {
+    format!("<p class=\"missing\">{what}</p>")
+}
+
+/// Figure 1: energy per frame by component, as a share of the frame's total, mean over scenes.
+pub fn figure1(r: &Results) -> Figure {
+    let mut series = Vec::new();
+    let mut notes = String::new();
+    for (i, arch) in [Arch::TraxBaseline, Arch::Strata].into_iter().enumerate() {
+        let rows: Vec<&Row> = table_rows(r, arch).into_values().collect();
+        if rows.is_empty() {
+            notes.push_str(&not_run(&format!("{}: not run.", label(arch))));
+            continue;
+        }
+        let mut values: Vec<Option<f64>> = COMPONENTS
+            .iter()
+            .map(|(c, _)| {
+                Some(
+                    100.0
+                        * rows
+                            .iter()
+                            .map(|row| num(row, c) / num(row, TOTAL_ENERGY))
+                            .sum::<f64>()
+                        / rows.len() as f64,
+                )
+            })
+            .collect();
+        if arch == Arch::Strata {
+            let shares: Option<Vec<f64>> = rows
+                .iter()
+                .map(|row| stream_energy(row).map(|e| e / num(row, TOTAL_ENERGY)))
+                .collect();
+            values.push(shares.map(|s| 100.0 * s.iter().sum::<f64>() / s.len() as f64));
+        }
+        let scenes: Vec<&str> = rows.iter().map(|row| scene(row)).collect();
+        notes.push_str(&format!(
+            "<p>rtsim {}: mean over {} scene(s) ({}).</p>",
+            label(arch),
+            rows.len(),
+            scenes.join(", ")
+        ));
+        series.push(BarSeries {
+            name: format!("rtsim {}", label(arch)),
+            values,
+            color: palette(i),
+        });
+    }
+    let mut categories: Vec<String> = COMPONENTS.iter().map(|(_, l)| l.to_string()).collect();
+    categories.push("Stream".into());
+    Figure {
+        name: "strata-fig1",
+        caption: "STRaTA Figure 1: energy per frame by component, share of the frame's total (%), mean over the scenes run \
+                  (I$: instruction caches, RF: register files, XUs: execution units). \
+                  The paper's figure is graphical; its text states only that DRAM takes \"slightly over 60%\" (§1), drawn as the dashed mark."
+            .into(),
+        chart: Chart {
+            title: "Energy per frame by component".into(),
+            x_label: "component".into(),
+            y_label: "share of frame energy (%)".into(),
+            body: Body::Bars {
+                categories,
+                series,
+                marks: vec![(0, 100.0 * paper::STRATA_FIG1_DRAM_SHARE, "paper: >60%".into())],
+            },
+        },
+        notes,
+    }
+}
+
+/// A curve of Figures 5–6: architecture, legend name, runs in size order.
+type SizeCurve<'a> = (Arch, String, Vec<&'a Row>);
+
+/// Curves against size (Figures 5–6) with their legend names, and the notes for the
+/// architectures without one.
+fn size_curves(r: &Results) -> (Vec<SizeCurve<'_>>, String) {
+    let cs: Vec<_> = curves(r, size, |_, row| num(row, TMS))
+        .into_iter()
+        .map(|(a, s, tms, rows)| (a, format!("{s} {} ({tms} TMs)", label(a)), rows))
+        .collect();
+    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
+    let notes = missing_curves(&drawn, "sizes");
+    (cs, notes)
+}
+
+/// `y` against size over `rows`, leaving out rows without a value.
+fn size_series(
+    arch: Arch,
+    rows: &[&Row],
+    name: String,
+    color: usize,
+    dashed: bool,
+    y: impl Fn(&Row) -> Option<f64>,
+) -> Series {
+    Series {
+        name,
+        points: rows
+            .iter()
+            .filter_map(|row| y(row).map(|v| (size(arch, row), v)))
+            .collect(),
+        color: palette(color),
+        dashed,
+    }
+}
+
+/// Notes for the architectures without a curve (`drawn`: the curves' architectures, `over`:
+/// what the curves vary).
+fn missing_curves(drawn: &[Arch], over: &str) -> String {
+    [Arch::TraxBaseline, Arch::Strata]
+        .into_iter()
+        .filter(|a| !drawn.contains(a))
+        .map(|a| not_run(&format!("{}: not run over {over}.", label(a))))
+        .collect()
+}
+
+/// Figure 5: L1 misses (solid) and stream accesses (dashed) against L2/stream size.
+pub fn figure5(r: &Results) -> Figure {
+    let mut series = Vec::new();
+    let (cs, mut notes) = size_curves(r);
+    for (i, (arch, name, rows)) in cs.iter().enumerate() {
+        let l1 = |row: &Row| row.num(L1_MISSES);
+        series.push(size_series(
+            *arch,
+            rows,
+            format!("{name} L1 misses"),
+            i,
+            false,
+            l1,
+        ));
+        if *arch == Arch::Strata {
+            let stream = size_series(
+                *arch,
+                rows,
+                format!("{name} stream"),
+                i,
+                true,
+                stream_accesses,
+            );
+            if stream.points.is_empty() {
+                notes.push_str(&not_run(&format!(
+                    "{name}: no stream-access columns in the results."
+                )));
+            }
+            series.push(stream);
+        }
+    }
+    // The caption's L1 hit rates beside ours (every TRaX-chip row).
+    let mut rates = String::from("<p>L1 hit rates, the paper's caption against ours (all runs):");
+    for (arch, lo, hi) in [Arch::TraxBaseline, Arch::Strata]
+        .iter()
+        .zip(paper::STRATA_FIG5_L1_HIT_PCT)
+        .map(|(a, p)| (*a, p.1, p.2))
+    {
+        let ours: Vec<f64> = r
+            .of(arch)
+            .map(|row| 100.0 * num(row, L1_HIT_RATE))
+            .collect();
+        let range = if ours.is_empty() {
+            "not run".to_string()
+        } else {
+            let lo_o = ours.iter().cloned().fold(f64::INFINITY, f64::min);
+            let hi_o = ours.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            format!("{}–{} %", fixed(lo_o, 1), fixed(hi_o, 1))
+        };
+        rates.push_str(&format!(
+            " {}: paper {lo}–{hi} %, rtsim {range};",
+            label(arch)
+        ));
+    }
+    rates.push_str("</p>");
+    notes.push_str(&rates);
+    Figure {
+        name: "strata-fig5",
+        caption: "STRaTA Figure 5: L1 misses (solid) and stream memory accesses (dashed) against the L2 (baseline) or stream memory (STRaTA) size; \
+                  STRaTA's L1 misses go to its fixed 512 KB L2. The grey line is 1.5 MB (GK110's L2). The paper's curves are graphical only."
+            .into(),
+        chart: Chart {
+            title: "L1 misses and stream accesses vs L2/stream size".into(),
+            x_label: "L2 / stream memory size".into(),
+            y_label: "accesses per frame".into(),
+            body: Body::Lines {
+                x_scale: Scale::Log2,
+                y_scale: Scale::Linear,
+                x_ticks: size_ticks(),
+                series,
+                marker: Some((paper::STRATA_GK110_L2_BYTES, "GK110".into())),
+            },
+        },
+        notes,
+    }
+}
+
+/// Figure 6: L2/stream energy (dashed) and DRAM energy (solid) per frame against size.
+pub fn figure6(r: &Results) -> Figure {
+    let mut series = Vec::new();
+    let (cs, mut notes) = size_curves(r);
+    for (i, (arch, name, rows)) in cs.iter().enumerate() {
+        let dram = |row: &Row| row.num(DRAM_ENERGY);
+        series.push(size_series(
+            *arch,
+            rows,
+            format!("{name} DRAM"),
+            i,
+            false,
+            dram,
+        ));
+        let strata = *arch == Arch::Strata;
+        let on_chip = |row: &Row| {
+            let stream = if strata { stream_energy(row)? } else { 0.0 };
+            Some(num(row, L2_ENERGY) + stream)
+        };
+        let what = if strata { "L2+stream" } else { "L2" };
+        let s = size_series(*arch, rows, format!("{name} {what}"), i, true, on_chip);
+        if s.points.is_empty() {
+            notes.push_str(&not_run(&format!(
+                "{name}: no stream-energy column in the results."
+            )));
+        }
+        series.push(s);
+    }
+    Figure {
+        name: "strata-fig6",
+        caption: "STRaTA Figure 6: energy per frame of the L2 cache / stream memory (dashed) and of DRAM (solid) against their size (log scale). \
+                  The grey line is 1.5 MB. The paper's curves are graphical only; its Table 2 energies per access are what our L2 and stream memory charge."
+            .into(),
+        chart: Chart {
+            title: "L2/stream and DRAM energy vs size".into(),
+            x_label: "L2 / stream memory size".into(),
+            y_label: "energy per frame (J)".into(),
+            body: Body::Lines {
+                x_scale: Scale::Log2,
+                y_scale: Scale::Log10,
+                x_ticks: size_ticks(),
+                series,
+                marker: Some((paper::STRATA_GK110_L2_BYTES, "GK110".into())),
+            },
+        },
+        notes,
+    }
+}
+
+/// Figure 7: frames per second against the number of TMs.
+pub fn figure7(r: &Results) -> Figure {
+    let cs = curves(r, |_, row| num(row, TMS), size);
+    let series: Vec<Series> = cs
+        .iter()
+        .enumerate()
+        .map(|(i, (arch, s, sz, rows))| Series {
+            name: format!("{s} {} ({})", label(*arch), bytes_label(*sz)),
+            points: rows
+                .iter()
+                .map(|row| (num(row, TMS), num(row, FPS)))
+                .collect(),
+            color: palette(i),
+            dashed: *arch == Arch::Strata,
+        })
+        .collect();
+    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
+    let notes = missing_curves(&drawn, "TM counts");
+    Figure {
+        name: "strata-fig7",
+        caption: "STRaTA Figure 7: performance (frames per second) against the number of TMs (32 TPs each); baseline solid, STRaTA dashed. \
+                  The paper's curves are graphical only (they plateau as DRAM saturates)."
+            .into(),
+        chart: Chart {
+            title: "Performance vs TMs".into(),
+            x_label: "TMs".into(),
+            y_label: "frames per second".into(),
+            body: Body::Lines {
+                x_scale: Scale::Log2,
+                y_scale: Scale::Linear,
+                x_ticks: paper::STRATA_FIG7_TMS.iter().map(|t| (*t, chart::short_number(*t))).collect(),
+                series,
+                marker: None,
+            },
+        },
+        notes,
+    }
+}
+
+/// The paper scenes in the paper's order, then scenes of ours it does not have.
+fn scene_order(r: &Results) -> Vec<(Option<&'static str>, Option<String>)> {
+    let mut out: Vec<(Option<&'static str>, Option<String>)> = paper::STRATA_TABLE1
+        .iter()
+        .map(|(p, _, _)| (Some(*p), paper::our_scene(p).map(str::to_string)))
+        .collect();
+    let mut extra: Vec<String> = r
+        .rows
+        .iter()
+        .filter(|(a, _)| a.is_trax())
+        .map(|(_, row)| scene(row).to_string())
+        .filter(|s| !out.iter().any(|(_, o)| o.as_deref() == Some(s.as_str())))
+        .collect();
+    extra.sort();
+    extra.dedup();
+    out.extend(extra.into_iter().map(|s| (None, Some(s))));
+    out
+}
+
+fn dram_paper(c: &DramCols, baseline_j: Option<f64>) -> String {
+    let energy = match baseline_j {
+        Some(b) => format!("{} ({:.0}%)", c.dram_energy_j, 100.0 * c.dram_energy_j / b),
+        None => c.dram_energy_j.to_string(),
+    };
+    [
+        c.accesses_m.to_string(),
+        c.row_hit_pct.to_string(),
+        c.read_latency_cycles.to_string(),
+        c.ms_per_frame.to_string(),
+        energy,
+    ]
+    .iter()
+    .map(|s| td(s))
+    .collect()
+}
+
+fn dram_ours(row: Option<&&Row>, missing: &str) -> String {
+    let v = |col: &str| row.and_then(|r| Val::mean(&[r], col));
+    td_val(&v(DRAM_ACCESSES), |x| fixed(x / 1e6, 2), missing)
+        + &td_val(&v(ROW_HIT_RATE), |x| fixed(100.0 * x, 0), missing)
+        + &td_val(&v(READ_LATENCY), |x| fixed(x, 0), missing)
+        + &td_val(&v(MS_PER_FRAME), |x| fixed(x, 3), missing)
+        + &td_val(&v(DRAM_ENERGY), |x| format!("{x:.3e}"), missing)
+}
+
+/// Table 1: DRAM characteristics and ms/frame per scene, baseline and STRaTA.
+pub fn table1(r: &Results) -> String {
+    let base = table_rows(r, Arch::TraxBaseline);
+    let strata = table_rows(r, Arch::Strata);
+    let cols = [
+        "DRAM accesses (M)",
+        "Row buffer hit rate (%)",
+        "Avg. read latency (cycles)",
+        "ms/frame",
+        "DRAM energy (J)",
+    ];
+    let sub: String = cols.iter().chain(&cols).map(|c| th(c, 1)).collect();
+    let head = vec![
+        format!(
+            "{}{}{}{}",
+            th("Scene", 1),
+            th("", 1),
+            th("Baseline", 5),
+            th("STRaTA", 5)
+        ),
+        format!("{}{}{sub}", th("", 1), th("", 1)),
+    ];
+    let mut body = Vec::new();
+    for (paper_scene, ours) in scene_order(r) {
+        let name = paper_scene
+            .map(str::to_string)
+            .or(ours.clone())
+            .unwrap_or_default();
+        if let Some((_, b, s)) = paper::STRATA_TABLE1
+            .iter()
+            .find(|t| Some(t.0) == paper_scene)
+        {
+            body.push((
+                "paper".to_string(),
+                td(&name)
+                    + &td("paper")
+                    + &dram_paper(b, None)
+                    + &dram_paper(s, Some(b.dram_energy_j)),
+            ));
+        }
+        let missing = if ours.is_some() {
+            "not run"
+        } else {
+            "no scene"
+        };
+        let key = ours.clone().unwrap_or_default();
+        body.push((
+            "ours".to_string(),
+            td(&ours
+                .clone()
+                .map(|o| format!("{name} ({o})"))
+                .unwrap_or(name))
+                + &td("rtsim")
+                + &dram_ours(base.get(&key), missing)
+                + &dram_ours(strata.get(&key), missing),
+        ));
+    }
+    table(
+        "strata-table1",
+        "STRaTA Table 1: DRAM accesses, row buffer hit rate, average read latency (GPU cycles), ms/frame and DRAM energy per frame, \
+         baseline (4 MB L2) against STRaTA (4 MB stream memory + 512 KB L2). Ours: per scene, the 4 MB run with the most TMs (quick runs use fewer TMs and smaller frames, so absolute values differ); \
+         our DRAM energy is printed in J with three significant digits.",
+        &head,
+        &body,
+    )
+}
+
+/// Table 3: register file and instruction cache energy, baseline and STRaTA, and STRaTA's sum
+/// as a percentage of the baseline's.
+pub fn table3(r: &Results) -> String {
+    let base = table_rows(r, Arch::TraxBaseline);
+    let strata = table_rows(r, Arch::Strata);
+    let head = vec![
+        format!(
+            "{}{}{}{}{}",
+            th("Scene", 1),
+            th("", 1),
+            th("Baseline", 2),
+            th("STRaTA", 2),
+            th("Diff (%)", 1)
+        ),
+        format!(
+            "{}{}{}{}{}{}{}",
+            th("", 1),
+            th("", 1),
+            th("RF (J)", 1),
+            th("iCache (J)", 1),
+            th("RF (J)", 1),
+            th("iCache (J)", 1),
+            th("", 1)
+        ),
+    ];
+    let mut body = Vec::new();
+    for (paper_scene, ours) in scene_order(r) {
+        let name = paper_scene
+            .map(str::to_string)
+            .or(ours.clone())
+            .unwrap_or_default();
+        if let Some(t) = paper::STRATA_TABLE3
+            .iter()
+            .find(|t| Some(t.0) == paper_scene)
+        {
+            let cells = [t.1, t.2, t.3, t.4, t.5]
+                .iter()
+                .map(|v| td(&v.to_string()))
+                .collect::<String>();
+            body.push(("paper".to_string(), td(&name) + &td("paper") + &cells));
+        }
+        let missing = if ours.is_some() {
+            "not run"
+        } else {
+            "no scene"
+        };
+        let key = ours.clone().unwrap_or_default();
+        let (b, s) = (base.get(&key), strata.get(&key));
+        let v = |row: Option<&&Row>, col: &str| row.and_then(|r| Val::mean(&[r], col));
+        let e = |x: f64| format!("{x:.3e}");
+        let diff = match (b, s) {
+            (Some(b), Some(s)) => fixed(
+                100.0 * (num(s, RF_ENERGY) + num(s, ICACHE_ENERGY))
+                    / (num(b, RF_ENERGY) + num(b, ICACHE_ENERGY)),
+                0,
+            ),
+            _ => "–".into(),
+        };
+        body.push((
+            "ours".to_string(),
+            td(&ours
+                .clone()
+                .map(|o| format!("{name} ({o})"))
+                .unwrap_or(name))
+                + &td("rtsim")
+                + &td_val(&v(b, RF_ENERGY), e, missing)
+                + &td_val(&v(b, ICACHE_ENERGY), e, missing)
+                + &td_val(&v(s, RF_ENERGY), e, missing)
+                + &td_val(&v(s, ICACHE_ENERGY), e, missing)
+                + &td(&diff),
+        ));
+    }
+    table(
+        "strata-table3",
+        "STRaTA Table 3: register file (RF) and instruction cache energy per frame (J), baseline against STRaTA with phase-specific pipelines; \
+         Diff is STRaTA's sum as a percentage of the baseline's. Ours: the same runs as Table 1.",
+        &head,
+        &body,
+    )
+}
+
+/// The STRaTA section.
+pub fn sections(r: &Results) -> Section {
+    let mut s = Section {
+        title:
+            "STRaTA (Kopta et al., \"Memory Considerations for Low Energy Ray Tracing\", CGF 2015)"
+                .into(),
+        intro: format!(
+            "<p>From rows of <code>trax-baseline</code> and <code>strata</code>. Paper values: Tables 1 and 3 as printed; \
+             Figures 1, 5, 6 and 7 are graphical, so only the values the text states are shown. {}</p>",
+            if r.of(Arch::Strata).next().is_none() {
+                "<span class=\"missing\">No <code>strata</code> rows in these results: STRaTA's columns and curves are not run.</span>"
+            } else {
+                ""
+            }
+        ),
+        ..Section::default()
+    };
+    s.figure(figure1(r));
+    s.table(table1(r));
+    s.figure(figure5(r));
+    s.figure(figure6(r));
+    s.figure(figure7(r));
+    s.table(table3(r));
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::Cell;
+
+    /// A TRaX-chip row with every required column (`x` scales the values).
+    pub(crate) fn trax_row(
+        point: usize,
+        arch: Arch,
+        scene: &str,
+        tms: f64,
+        size: f64,
+        x: f64,
+    ) -> (Arch, Row) {
+        let mut row = Row {
+            point,
+            ..Row::default()
+        };
+        for c in REQUIRED {
+            row.values.insert(c.to_string(), Cell::Num(x));
+        }
+        row.values.insert(TMS.into(), Cell::Num(tms));
+        row.values.insert(TOTAL_ENERGY.into(), Cell::Num(7.0 * x));
+        row.values.insert(L1_HIT_RATE.into(), Cell::Num(0.9));
+        row.values
+            .insert(SCENE_COLUMN.into(), Cell::Text(scene.into()));
+        row.values
+            .insert(crate::ARCH_COLUMN.into(), Cell::Text(arch.preset().into()));
+        row.values
+            .insert(size_column(arch).unwrap().into(), Cell::Num(size));
+        (arch, row)
+    }
+
+    fn results(rows: Vec<(Arch, Row)>) -> Results {
+        Results {
+            source: "t.csv".into(),
+            rows,
+        }
+    }
+
+    const MB4: f64 = 4194304.0;
+
+    #[test]
+    fn tables_take_the_4mb_run_with_most_tms_per_scene() {
+        let r = results(vec![
+            trax_row(0, Arch::TraxBaseline, "sibenik", 128.0, 1048576.0, 1.0),
+            trax_row(1, Arch::TraxBaseline, "sibenik", 4.0, MB4, 2.0),
+            trax_row(2, Arch::TraxBaseline, "sibenik", 8.0, MB4, 3.0),
+            trax_row(3, Arch::TraxBaseline, "hairball", 8.0, MB4, 4.0),
+        ]);
+        let t = table_rows(&r, Arch::TraxBaseline);
+        assert_eq!(t["sibenik"].point, 2);
+        assert_eq!(t["hairball"].point, 3);
+        let html = table1(&r);
+        // Sibenik's paper row, then ours from point 2; STRaTA not run.
+        assert!(html.contains("<td>39</td>"));
+        assert!(html.contains("data-col=\"trax.ms_per_frame\" data-points=\"2\" data-value=\"3\""));
+        assert!(html.contains("not run"));
+        // A paper scene we do not have.
+        assert!(html.contains("no scene"));
+    }
+
+    #[test]
+    fn figures_draw_only_curves_the_results_have() {
+        let r = results(vec![
+            trax_row(0, Arch::TraxBaseline, "sibenik", 1.0, MB4, 1.0),
+            trax_row(1, Arch::TraxBaseline, "sibenik", 2.0, MB4, 2.0),
+            trax_row(2, Arch::TraxBaseline, "conference", 2.0, MB4, 2.0),
+        ]);
+        let f7 = figure7(&r);
+        let Body::Lines { series, .. } = &f7.chart.body else {
+            panic!()
+        };
+        assert_eq!(series.len(), 1, "conference has one TM count: no curve");
+        assert_eq!(series[0].points, [(1.0, 1.0), (2.0, 2.0)]);
+        assert!(f7.notes.contains("STRaTA: not run"));
+        // One size only: Figures 5 and 6 are empty, and say so.
+        assert!(figure5(&r).chart.is_empty() && figure6(&r).chart.is_empty());
+        let f1 = figure1(&r);
+        let Body::Bars { series, .. } = &f1.chart.body else {
+            panic!()
+        };
+        assert_eq!(series.len(), 1);
+        // Each component is 1/7 of the total in the synthetic rows.
+        assert!((series[0].values[0].unwrap() - 100.0 / 7.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn strata_rows_fill_the_strata_columns_and_stream_curves() {
+        let mut rows = vec![
+            trax_row(0, Arch::TraxBaseline, "sibenik", 128.0, MB4, 1.0),
+            trax_row(1, Arch::Strata, "sibenik", 128.0, MB4, 2.0),
+            trax_row(2, Arch::Strata, "sibenik", 128.0, 2.0 * MB4, 3.0),
+        ];
+        rows[1]
+            .1
+            .values
+            .insert("trax.stream.pushes".into(), Cell::Num(10.0));
+        rows[1]
+            .1
+            .values
+            .insert("trax.stream.pops".into(), Cell::Num(5.0));
+        let r = results(rows);
+        assert_eq!(stream_accesses(&r.rows[1].1), Some(15.0));
+        let html = table3(&r);
+        assert!(html.contains("data-points=\"1\""), "{html}");
+        let f5 = figure5(&r);
+        let Body::Lines { series, .. } = &f5.chart.body else {
+            panic!()
+        };
+        let stream = series.iter().find(|s| s.dashed).unwrap();
+        assert_eq!(
+            stream.points,
+            [(MB4, 15.0)],
+            "point 2 has no stream columns: left out"
+        );
+    }
+}

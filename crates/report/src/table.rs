@@ -1,0 +1,350 @@
+//! The merged table of a sweep, read back: [`Table`] of [`Row`]s, each a map from column name
+//! (`arch.trax.tms`, `trax.ms_per_frame` …) to a [`Cell`].
+//!
+//! A sweep's table holds only the parameters that vary (`[grid]`, `[[point]]`), so the
+//! architecture, scene and sizes a point shares with every other point are not columns. When
+//! the point directories are there (`RESULTS/points/p00007/config.resolved.toml`, written by
+//! every run), each row is completed from its point's resolved configuration: every scalar key,
+//! by its dotted name, where the table has no column of that name.
+
+use crate::ReportError;
+use rtsim_sweep::results::{CSV_FILE as CSV, JSONL_FILE as JSONL};
+use rtsim_sweep::store::Store;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+/// Each point's resolved configuration, inside `points/pNNNNN/`.
+pub const RESOLVED: &str = "config.resolved.toml";
+
+/// One value of the table.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Cell {
+    Num(f64),
+    Bool(bool),
+    Text(String),
+}
+
+impl Cell {
+    /// A CSV cell: a number if it parses as one, a boolean for `true`/`false`, else text.
+    fn parse(s: &str) -> Cell {
+        match s {
+            "true" => Cell::Bool(true),
+            "false" => Cell::Bool(false),
+            _ => s
+                .parse::<f64>()
+                .map(Cell::Num)
+                .unwrap_or_else(|_| Cell::Text(s.to_string())),
+        }
+    }
+
+    fn from_json(v: &Value) -> Option<Cell> {
+        match v {
+            Value::Number(n) => n.as_f64().map(Cell::Num),
+            Value::Bool(b) => Some(Cell::Bool(*b)),
+            Value::String(s) => Some(Cell::Text(s.clone())),
+            Value::Null | Value::Array(_) | Value::Object(_) => None,
+        }
+    }
+
+    fn from_toml(v: &toml::Value) -> Option<Cell> {
+        match v {
+            toml::Value::Integer(i) => Some(Cell::Num(*i as f64)),
+            toml::Value::Float(f) => Some(Cell::Num(*f)),
+            toml::Value::Boolean(b) => Some(Cell::Bool(*b)),
+            toml::Value::String(s) => Some(Cell::Text(s.clone())),
+            _ => None,
+        }
+    }
+}
+
+/// One finished point.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Row {
+    pub point: usize,
+    pub values: BTreeMap<String, Cell>,
+}
+
+impl Row {
+    pub fn num(&self, column: &str) -> Option<f64> {
+        match self.values.get(column)? {
+            Cell::Num(x) => Some(*x),
+            Cell::Bool(b) => Some(f64::from(u8::from(*b))),
+            Cell::Text(_) => None,
+        }
+    }
+
+    pub fn text(&self, column: &str) -> Option<&str> {
+        match self.values.get(column)? {
+            Cell::Text(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    pub fn flag(&self, column: &str) -> Option<bool> {
+        match self.values.get(column)? {
+            Cell::Bool(b) => Some(*b),
+            _ => None,
+        }
+    }
+}
+
+/// A merged table and the file it came from (named in every error about it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    pub source: PathBuf,
+    pub rows: Vec<Row>,
+}
+
+impl Table {
+    /// Read `path`: a sweep's results directory, or its `results.jsonl` / `results.csv`. Rows
+    /// are completed from `points/*/config.resolved.toml` beside the table when present.
+    pub fn load(path: &Path) -> Result<Table, ReportError> {
+        let meta = std::fs::metadata(path).map_err(|e| ReportError::io(path, e))?;
+        let file = if meta.is_dir() {
+            [JSONL, CSV]
+                .iter()
+                .map(|n| path.join(n))
+                .find(|p| p.is_file())
+                .ok_or_else(|| {
+                    ReportError::input(
+                        path,
+                        format!(
+                            "no {JSONL} or {CSV} here: not a sweep's results directory (run `rtsim sweep EXP` or `rtsim sweep EXP --merge` first)"
+                        ),
+                    )
+                })?
+        } else {
+            path.to_path_buf()
+        };
+        let text = std::fs::read_to_string(&file).map_err(|e| ReportError::io(&file, e))?;
+        let mut table = if file.extension().is_some_and(|e| e == "jsonl") {
+            parse_jsonl(&file, &text)?
+        } else {
+            parse_csv(&file, &text)?
+        };
+        let dir = file.parent().unwrap_or(Path::new("."));
+        for row in &mut table.rows {
+            let resolved = Store::new(dir).point_dir(row.point).join(RESOLVED);
+            if resolved.is_file() {
+                complete_from_config(row, &resolved)?;
+            }
+        }
+        Ok(table)
+    }
+}
+
+/// `{"point": i, "params": {…}, "metrics": {…}}` per line (`rtsim sweep`'s `results.jsonl`).
+pub fn parse_jsonl(path: &Path, text: &str) -> Result<Table, ReportError> {
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let at = |m: String| ReportError::input(path, format!("line {}: {m}", i + 1));
+        let v: Value = serde_json::from_str(line).map_err(|e| at(e.to_string()))?;
+        let point = v
+            .get("point")
+            .and_then(Value::as_u64)
+            .ok_or_else(|| at("no `point` number".into()))?;
+        let mut row = Row {
+            point: point as usize,
+            values: BTreeMap::new(),
+        };
+        for part in ["params", "metrics"] {
+            let Some(obj) = v.get(part).and_then(Value::as_object) else {
+                return Err(at(format!("no `{part}` object")));
+            };
+            for (k, v) in obj {
+                if let Some(c) = Cell::from_json(v) {
+                    row.values.insert(k.clone(), c);
+                }
+            }
+        }
+        rows.push(row);
+    }
+    Ok(Table {
+        source: path.to_path_buf(),
+        rows,
+    })
+}
+
+/// A CSV table with a `point` column (`rtsim sweep`'s `results.csv`; RFC 4180 quoting).
+pub fn parse_csv(path: &Path, text: &str) -> Result<Table, ReportError> {
+    let records = csv_records(text).map_err(|m| ReportError::input(path, m))?;
+    let Some((header, body)) = records.split_first() else {
+        return Err(ReportError::input(path, "empty table (no header line)"));
+    };
+    let point_col = header
+        .iter()
+        .position(|h| h == "point")
+        .ok_or_else(|| ReportError::input(path, "no column `point` (not a merged sweep table)"))?;
+    let mut rows = Vec::new();
+    for (i, rec) in body.iter().enumerate() {
+        let line = i + 2;
+        if rec.len() != header.len() {
+            return Err(ReportError::input(
+                path,
+                format!(
+                    "line {line}: {} cells, the header has {}",
+                    rec.len(),
+                    header.len()
+                ),
+            ));
+        }
+        let point = rec[point_col].parse::<usize>().map_err(|_| {
+            ReportError::input(
+                path,
+                format!(
+                    "line {line}: column `point` is `{}`, not a number",
+                    rec[point_col]
+                ),
+            )
+        })?;
+        let mut row = Row {
+            point,
+            values: BTreeMap::new(),
+        };
+        for (h, cell) in header.iter().zip(rec) {
+            if h != "point" && !cell.is_empty() {
+                row.values.insert(h.clone(), Cell::parse(cell));
+            }
+        }
+        rows.push(row);
+    }
+    Ok(Table {
+        source: path.to_path_buf(),
+        rows,
+    })
+}
+
+/// Split CSV text into records of unquoted cells.
+fn csv_records(text: &str) -> Result<Vec<Vec<String>>, String> {
+    let mut records = Vec::new();
+    let mut rec = Vec::new();
+    let mut cell = String::new();
+    let mut quoted = false;
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (quoted, c) {
+            (true, '"') if chars.peek() == Some(&'"') => {
+                chars.next();
+                cell.push('"');
+            }
+            (true, '"') => quoted = false,
+            (true, c) => cell.push(c),
+            (false, '"') if cell.is_empty() => quoted = true,
+            (false, ',') => rec.push(std::mem::take(&mut cell)),
+            (false, '\r') => {}
+            (false, '\n') => {
+                rec.push(std::mem::take(&mut cell));
+                records.push(std::mem::take(&mut rec));
+            }
+            (false, c) => cell.push(c),
+        }
+    }
+    if quoted {
+        return Err(format!(
+            "line {}: unterminated quoted cell",
+            records.len() + 1
+        ));
+    }
+    if !cell.is_empty() || !rec.is_empty() {
+        rec.push(cell);
+        records.push(rec);
+    }
+    Ok(records)
+}
+
+/// Add every scalar of the point's resolved configuration that the row lacks.
+fn complete_from_config(row: &mut Row, path: &Path) -> Result<(), ReportError> {
+    let text = std::fs::read_to_string(path).map_err(|e| ReportError::io(path, e))?;
+    let v: toml::Table =
+        toml::from_str(&text).map_err(|e| ReportError::input(path, e.to_string()))?;
+    let mut leaves = Vec::new();
+    rtsim_sweep::experiment::flatten("", &v, &mut leaves);
+    for (key, value) in leaves {
+        if let Some(c) = Cell::from_toml(&value) {
+            row.values.entry(key).or_insert(c);
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_cells_are_typed_and_quotes_undone() {
+        let t = parse_csv(
+            Path::new("r.csv"),
+            "point,scene.name,x,ok\n0,\"a,\"\"b\"\"\",1.5,true\n1,c,,false\n",
+        )
+        .unwrap();
+        assert_eq!(t.rows.len(), 2);
+        assert_eq!(t.rows[0].text("scene.name"), Some("a,\"b\""));
+        assert_eq!(t.rows[0].num("x"), Some(1.5));
+        assert_eq!(t.rows[0].flag("ok"), Some(true));
+        assert_eq!(t.rows[1].num("x"), None, "an empty cell is absent");
+        assert_eq!(t.rows[1].point, 1);
+    }
+
+    #[test]
+    fn csv_errors_name_the_file_line_and_column() {
+        let e = parse_csv(Path::new("r.csv"), "x,y\n1,2\n").unwrap_err();
+        assert!(
+            e.to_string().contains("r.csv") && e.to_string().contains("`point`"),
+            "{e}"
+        );
+        let e = parse_csv(Path::new("r.csv"), "point,y\n1,2,3\n").unwrap_err();
+        assert!(e.to_string().contains("line 2"), "{e}");
+        let e = parse_csv(Path::new("r.csv"), "point,y\nzz,2\n").unwrap_err();
+        assert!(e.to_string().contains("`point` is `zz`"), "{e}");
+    }
+
+    #[test]
+    fn jsonl_merges_params_and_metrics() {
+        let t = parse_jsonl(
+            Path::new("r.jsonl"),
+            "{\"point\":3,\"params\":{\"arch.preset\":\"sgrt\"},\"metrics\":{\"a.b\":2,\"c\":true}}\n",
+        )
+        .unwrap();
+        assert_eq!(t.rows[0].point, 3);
+        assert_eq!(t.rows[0].text("arch.preset"), Some("sgrt"));
+        assert_eq!(t.rows[0].num("a.b"), Some(2.0));
+        let e = parse_jsonl(Path::new("r.jsonl"), "{\"params\":{}}\n").unwrap_err();
+        assert!(e.to_string().contains("r.jsonl: line 1"), "{e}");
+    }
+
+    #[test]
+    fn rows_are_completed_from_each_points_resolved_config() {
+        let dir = std::env::temp_dir().join(format!("rtsim-report-table-{}", std::process::id()));
+        let p = dir.join("points/p00000");
+        std::fs::create_dir_all(&p).unwrap();
+        std::fs::write(dir.join(CSV), "point,arch.trax.tms,m\n0,4,1\n1,8,2\n").unwrap();
+        std::fs::write(
+            p.join(RESOLVED),
+            "[arch]\npreset = \"trax-baseline\"\n[arch.trax]\ntms = 99\n",
+        )
+        .unwrap();
+        let t = Table::load(&dir).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(t.rows[0].text("arch.preset"), Some("trax-baseline"));
+        assert_eq!(
+            t.rows[0].num("arch.trax.tms"),
+            Some(4.0),
+            "the table's value wins"
+        );
+        assert_eq!(
+            t.rows[1].text("arch.preset"),
+            None,
+            "no point directory: nothing added"
+        );
+    }
+
+    #[test]
+    fn a_missing_results_directory_is_an_error_naming_it() {
+        let e = Table::load(Path::new("/nonexistent/rtsim-results")).unwrap_err();
+        assert!(e.to_string().contains("/nonexistent/rtsim-results"), "{e}");
+    }
+}
