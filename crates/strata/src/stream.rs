@@ -49,6 +49,9 @@ pub struct StreamLayout {
     pub pointer_bits: u32,
     /// Ray slots.
     pub slots: u32,
+    /// Bytes of the path-state record kept beside each slot (0: none; the timed chip keeps
+    /// one per slot, `docs/STRATA.md` "Path state").
+    pub path_bytes: u32,
 }
 
 impl StreamLayout {
@@ -57,8 +60,17 @@ impl StreamLayout {
     /// pointer and a count; the free list a head pointer; all `p` bits wide with
     /// `p = ceil(log2(slots + 1))`.
     pub fn new(capacity_bytes: u64, buffers: u32) -> Option<StreamLayout> {
+        StreamLayout::with_path_table(capacity_bytes, buffers, 0)
+    }
+
+    /// [`StreamLayout::new`] with a `path_bytes` path-state record beside every slot.
+    pub fn with_path_table(
+        capacity_bytes: u64,
+        buffers: u32,
+        path_bytes: u32,
+    ) -> Option<StreamLayout> {
         let bits = capacity_bytes.checked_mul(8)?;
-        let record_bits = RAY_BYTES as u64 * 8;
+        let record_bits = (RAY_BYTES as u64 + path_bytes as u64) * 8;
         let mut best: Option<StreamLayout> = None;
         for p in 1..=32u64 {
             let fixed = (2 * buffers as u64 + 1) * p;
@@ -75,6 +87,7 @@ impl StreamLayout {
                     buffers,
                     pointer_bits: p as u32,
                     slots: slots as u32,
+                    path_bytes,
                 });
             }
         }
@@ -111,12 +124,16 @@ pub struct StreamStats {
     pub peak_buffer_rays: u32,
     /// Pushes refused because no slot was free (the one-for-one replacement keeps this 0).
     pub overflows: u64,
+    /// Path-state record reads and writes (the timed chip, which keeps them in the stream
+    /// memory; one access each).
+    pub path_reads: u64,
+    pub path_writes: u64,
 }
 
 impl StreamStats {
-    /// Accesses: pushes and pops.
+    /// Accesses: pushes, pops and path-state reads and writes.
     pub fn accesses(&self) -> u64 {
-        self.pushes + self.pops
+        self.pushes + self.pops + self.path_reads + self.path_writes
     }
 }
 
@@ -133,6 +150,8 @@ impl AddAssign<&StreamStats> for StreamStats {
         self.peak_rays = self.peak_rays.max(o.peak_rays);
         self.peak_buffer_rays = self.peak_buffer_rays.max(o.peak_buffer_rays);
         self.overflows += o.overflows;
+        self.path_reads += o.path_reads;
+        self.path_writes += o.path_writes;
     }
 }
 
@@ -167,10 +186,21 @@ pub struct StreamMemory {
 impl StreamMemory {
     /// An empty stream memory of `cfg.bytes` with `buffers` buffers.
     pub fn new(cfg: &StreamConfig, buffers: u32) -> Result<StreamMemory, StreamError> {
-        let layout = StreamLayout::new(cfg.bytes, buffers).ok_or(StreamError::TooSmall {
-            bytes: cfg.bytes,
-            buffers,
-        })?;
+        StreamMemory::with_path_table(cfg, buffers, 0)
+    }
+
+    /// [`StreamMemory::new`] with a `path_bytes` path-state record beside every slot.
+    pub fn with_path_table(
+        cfg: &StreamConfig,
+        buffers: u32,
+        path_bytes: u32,
+    ) -> Result<StreamMemory, StreamError> {
+        let layout = StreamLayout::with_path_table(cfg.bytes, buffers, path_bytes).ok_or(
+            StreamError::TooSmall {
+                bytes: cfg.bytes,
+                buffers,
+            },
+        )?;
         let n = layout.slots as usize;
         // Free list: 0 → 1 → … → n−1, so the first pushes fill slots in order.
         let next = (1..=n as u32)
@@ -222,6 +252,32 @@ impl StreamMemory {
 
     pub fn stats(&self) -> &StreamStats {
         &self.stats
+    }
+
+    /// The bank a pop from buffer `b` reads (its head slot's), if it holds a ray.
+    pub fn pop_bank(&self, b: u32) -> Option<u32> {
+        let h = *self.heads.get(b as usize)?;
+        (h != NULL).then_some(h % self.banks)
+    }
+
+    /// The bank the next push writes (the free list's head slot's), if a slot is free.
+    pub fn push_bank(&self) -> Option<u32> {
+        (self.free != NULL).then_some(self.free % self.banks)
+    }
+
+    /// The bank of path `id`'s state record (record `id` sits beside slot `id`).
+    pub fn path_bank(&self, id: u32) -> u32 {
+        id % self.banks
+    }
+
+    /// Count one access to path `id`'s state record.
+    pub fn path_access(&mut self, id: u32, write: bool) {
+        if write {
+            self.stats.path_writes += 1;
+        } else {
+            self.stats.path_reads += 1;
+        }
+        self.stats.bank_accesses[(id % self.banks) as usize] += 1;
     }
 
     fn check_buffer(&self, b: u32) -> Result<(), StreamError> {
