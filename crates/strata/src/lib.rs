@@ -25,7 +25,9 @@
 pub mod config;
 pub mod flow;
 pub mod pipeline;
+pub mod program;
 pub mod stream;
+pub mod timed;
 pub mod world;
 
 pub use config::{Policy, StrataConfig, StreamConfig};

@@ -302,6 +302,17 @@ impl<'a, S: Source> Chip<'a, S> {
         })
     }
 
+    /// Set every TM's unit capacities (a source whose TMs start reconfigured, STRaTA §3.3).
+    pub fn set_caps(&mut self, caps: [u8; UNIT_CLASSES]) {
+        self.caps.fill(caps);
+    }
+
+    /// Set the latency of unit class `class` (a unit the source adds, such as STRaTA's box
+    /// pipeline).
+    pub fn set_latency(&mut self, class: Class, cycles: u64) {
+        self.lat[class as usize] = cycles;
+    }
+
     pub fn tps(&self) -> usize {
         self.cores.len()
     }
@@ -495,9 +506,11 @@ impl<'a, S: Source> Chip<'a, S> {
                     }
                     SourceAccess::Done { ready } => {
                         let core = &mut self.cores[tp];
-                        let mut m = d.deps | bit(dst);
-                        if d.class == Class::StreamStore {
-                            m = bit(dst);
+                        // A stream load fills the registers it names; the others write
+                        // their destination only.
+                        let mut m = bit(dst);
+                        if d.class == Class::StreamLoad {
+                            m |= d.deps;
                         }
                         while m != 0 {
                             let r = m.trailing_zeros() as usize;
@@ -591,7 +604,7 @@ impl<S: Source> Chip<'_, S> {
         }
         let dram = self.hier.memory_mut().report(end);
         let clock_hz = self.cfg.clock_mhz as f64 * 1e6;
-        let (stream_j, pipeline_j) = self.src.extra_energy(&self.cfg);
+        let (stream_j, pipeline_j) = self.src.extra_energy(&self.cfg, &self.issue);
         let seconds = cycles as f64 / clock_hz;
         let energy = Energy::of(
             &self.cfg,

@@ -56,8 +56,12 @@ pub trait Source {
     ) -> Result<SourceAccess, ChipError>;
     /// Energy beyond the chip's own events, in joules: the stream memory's, and the
     /// operations performed inside fused pipelines.
-    fn extra_energy(&self, cfg: &crate::TraxConfig) -> (f64, f64) {
-        let _ = cfg;
+    fn extra_energy(
+        &self,
+        cfg: &crate::TraxConfig,
+        issue: &crate::stats::IssueStats,
+    ) -> (f64, f64) {
+        let _ = (cfg, issue);
         (0.0, 0.0)
     }
     /// Hint: TP `tp`'s state is about to be used (the fast engine prefetches it).
