@@ -166,8 +166,8 @@ fn wide(class: Class, dst: Reg, src: [Reg; 2], deps: u32, mem: Mem, rf: (u8, u8)
 }
 
 /// A fused block of [`crate::pipeline`] as instructions. `inputs` gives each input
-/// intrinsic's record (base) and word, in order. Dependences: a test waits for the latches
-/// loaded since the previous test and for the ray's registers; what follows a test reads its
+/// intrinsic's record (base) and word, in order. Dependences: a test waits for the next
+/// box's (6) or triangle's (9) latches in load order and for the ray's registers; what follows a test reads its
 /// result (and, for two-operand instructions, the previous test's).
 fn fused_insts(f: &FusedBlock, inputs: &[(u8, u8)]) -> Vec<Inst> {
     const LATCH0: Reg = regs::FIRST_TEMP;
@@ -204,10 +204,12 @@ fn fused_insts(f: &FusedBlock, inputs: &[(u8, u8)]) -> Vec<Inst> {
                 } else {
                     TRI_READS
                 };
-                for k in first_latch..latch {
+                // A box test reads one box (6 words), a triangle test one triangle (9).
+                let n = if fi.op == Op::BoxTest { 6 } else { 9 };
+                for k in first_latch..(first_latch + n).min(latch) {
                     deps |= bit(LATCH0 + k);
                 }
-                first_latch = latch;
+                first_latch += n;
                 let r = RESULT0 + tests % 2;
                 tests += 1;
                 last = [r, last[0]];
