@@ -18,8 +18,8 @@
 //!   records share the stream memory's banks (`arch.strata.stream.banks`, one port each by
 //!   default): an access to a bank already used this cycle waits a cycle.
 //! - **Fused pipelines** (`arch.strata.fused`). A TM is in node mode (a box pipeline of 6 mul
-//!   + 6 add: one box test per cycle, latency 8; 2 mul and 2 add left for general use) or
-//!   triangle mode (`triangle_pipelines` Plücker pipelines of 4 mul + 2 add, initiation
+//!   and 6 add: one box test per cycle, latency 8; 2 mul and 2 add left for general use) or
+//!   triangle mode (`triangle_pipelines` Plücker pipelines of 4 mul and 2 add, initiation
 //!   interval 18, latency 31). It changes mode only when it picks a treelet of the other kind
 //!   and none of its TPs holds a ray (§3.3: "all of the TPs within operate in the same mode
 //!   until reconfigured"); the reconfiguration takes `reconfigure_cycles`.
