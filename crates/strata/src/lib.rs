@@ -24,6 +24,7 @@
 
 pub mod config;
 pub mod flow;
+pub mod paper;
 pub mod pipeline;
 pub mod program;
 pub mod stream;

@@ -27,6 +27,7 @@ pub(crate) struct Ran {
     pub params: rtsim_trace::WorkloadParams,
     pub pixels: Vec<u32>,
     pub seconds: f64,
+    pub cpu_seconds: Option<f64>,
 }
 
 /// Run the session's frame on the STRaTA chip, with a progress bar on terminals.
@@ -41,6 +42,7 @@ pub(crate) fn frame(s: &Session) -> Result<Ran> {
         SimMode::Reference => Engine::Reference,
     };
     let bar = crate::progress::bar(pixels.len() as u64, "pixels");
+    let cpu_start = crate::cputime::process_seconds();
     let start = Instant::now();
     let out = rtsim_strata::timed::simulate(
         &cfg.arch.trax,
@@ -64,12 +66,16 @@ pub(crate) fn frame(s: &Session) -> Result<Ran> {
         },
     )?;
     let seconds = start.elapsed().as_secs_f64();
+    let cpu_seconds = crate::cputime::process_seconds()
+        .zip(cpu_start)
+        .map(|(b, a)| b - a);
     bar.finish_and_clear();
     Ok(Ran {
         out,
         params,
         pixels,
         seconds,
+        cpu_seconds,
     })
 }
 
