@@ -895,7 +895,7 @@ pub fn simulate(
     )?;
     chip.set_caps(caps);
     chip.set_latency(Class::BoxTest, pipeline::BOX.latency as u64);
-    let (mut out, src) = rtsim_trax::run_chip(chip, &sp.program, opts, progress)?;
+    let (out, src) = rtsim_trax::run_chip(chip, &sp.program, opts, progress)?;
     let strata = src.facts();
     let mut facts = strata.clone();
     facts.box_tests = out.report.issue.count(Class::BoxTest);
@@ -907,7 +907,5 @@ pub fn simulate(
         .get("fused_pipelines")
         .copied()
         .unwrap_or(0.0);
-    // The report's L2 facts are the small L2's; the stream memory is reported beside them.
-    out.report.chip.program_instructions = sp.program.insts.len() as u32;
     Ok(StrataOutput { out, strata: facts })
 }
