@@ -170,7 +170,11 @@ pub const TABLE3: [Table3Row; 11] = [
         Some("stanford-dragon"),
         [0.53, 0.4, 0.45, 0.36, 87.0],
     ),
-    t3("Dragon Box", None, [1.27, 0.97, 1.02, 0.83, 83.0]),
+    t3(
+        "Dragon Box",
+        Some("dragon-box"),
+        [1.27, 0.97, 1.02, 0.83, 83.0],
+    ),
     t3("Buddha", None, [0.36, 0.28, 0.32, 0.25, 89.0]),
     t3("Buddha Box", None, [0.98, 0.75, 0.8, 0.65, 84.0]),
     t3(
