@@ -123,30 +123,31 @@ impl Cache {
         self.find(self.line_of(addr)).is_some()
     }
 
-    /// Look `addr` up for `op` and count it: a hit updates replacement state (reads; writes if
-    /// `write_hit_updates_lru`) and, under write-back, marks a written line dirty. A miss
-    /// changes nothing (see [`Cache::fill`]). Returns whether it hit.
+    /// [`Cache::lookup`] when the line of `addr` is present (and then true); nothing at all
+    /// when it is not (false). One search where `contains` then `lookup` would make two.
     #[inline]
-    pub fn lookup(&mut self, addr: u64, op: MemOp) -> bool {
-        let line = self.line_of(addr);
+    pub fn lookup_if_present(&mut self, addr: u64, op: MemOp) -> bool {
+        let Some(i) = self.find(self.line_of(addr)) else {
+            return false;
+        };
         self.clock += 1;
-        let found = self.find(line);
+        self.count_hit(i, op);
+        true
+    }
+
+    /// Count a hit on way `i` by `op` at the current clock (see [`Cache::lookup`]).
+    #[inline(always)]
+    fn count_hit(&mut self, i: usize, op: MemOp) {
         let s = &mut self.stats;
-        match (op, found) {
-            (MemOp::Read, Some(i)) => {
+        match op {
+            MemOp::Read => {
                 s.reads += 1;
                 s.read_hits += 1;
                 if self.replacement == Replacement::Lru && !self.stamps.is_empty() {
                     self.stamps[i] = self.clock;
                 }
-                true
             }
-            (MemOp::Read, None) => {
-                s.reads += 1;
-                s.read_misses += 1;
-                false
-            }
-            (MemOp::Write, Some(i)) => {
+            MemOp::Write => {
                 s.writes += 1;
                 s.write_hits += 1;
                 if self.write_touch && !self.stamps.is_empty() {
@@ -155,14 +156,33 @@ impl Cache {
                 if self.policy == WritePolicy::WriteBack {
                     self.dirty[i] = true;
                 }
-                true
-            }
-            (MemOp::Write, None) => {
-                s.writes += 1;
-                s.write_misses += 1;
-                false
             }
         }
+    }
+
+    /// Look `addr` up for `op` and count it: a hit updates replacement state (reads; writes if
+    /// `write_hit_updates_lru`) and, under write-back, marks a written line dirty. A miss
+    /// changes nothing (see [`Cache::fill`]). Returns whether it hit.
+    #[inline]
+    pub fn lookup(&mut self, addr: u64, op: MemOp) -> bool {
+        let line = self.line_of(addr);
+        self.clock += 1;
+        if let Some(i) = self.find(line) {
+            self.count_hit(i, op);
+            return true;
+        }
+        let s = &mut self.stats;
+        match op {
+            MemOp::Read => {
+                s.reads += 1;
+                s.read_misses += 1;
+            }
+            MemOp::Write => {
+                s.writes += 1;
+                s.write_misses += 1;
+            }
+        }
+        false
     }
 
     /// Install the line of `addr` (dirty or clean), replacing a line by the policy; counts the

@@ -56,6 +56,7 @@ use crate::topology::{Parent, Topology};
 use rtsim_config::ConfigError;
 use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
 use rtsim_sim::{Component, EventError, EventQueue};
+use std::cell::Cell;
 use std::collections::VecDeque;
 
 /// One access by a requester.
@@ -156,10 +157,15 @@ enum Ev {
 }
 
 /// The line each MSHR is fetching (`NONE`: the MSHR is free), by MSHR: a cache has a few
-/// dozen MSHRs at most, so a scan finds a line sooner than a map would.
+/// dozen MSHRs at most, so a scan finds a line sooner than a map would. `filter` has bit
+/// `line mod 64` set iff a line in flight has that residue (`count` of them), so most lines
+/// that are not in flight (an inner cache asks for every access it refuses) are answered
+/// without the scan.
 #[derive(Clone, Debug)]
 struct InFlight {
     lines: Vec<u64>,
+    filter: u64,
+    count: [u16; 64],
 }
 
 impl InFlight {
@@ -167,20 +173,32 @@ impl InFlight {
     fn new(mshrs: usize) -> Self {
         InFlight {
             lines: vec![Self::NONE; mshrs],
+            filter: 0,
+            count: [0; 64],
         }
     }
     /// The MSHR fetching `line`.
     #[inline]
     fn get(&self, line: u64) -> Option<usize> {
+        if self.filter & (1 << (line & 63)) == 0 {
+            return None;
+        }
         self.lines.iter().position(|&l| l == line)
     }
     fn insert(&mut self, line: u64, mshr: usize) {
         debug_assert!(line != Self::NONE && self.get(line).is_none());
         self.lines[mshr] = line;
+        self.count[(line & 63) as usize] += 1;
+        self.filter |= 1 << (line & 63);
     }
     fn remove(&mut self, line: u64) -> Option<usize> {
         let i = self.get(line)?;
         self.lines[i] = Self::NONE;
+        let r = (line & 63) as usize;
+        self.count[r] -= 1;
+        if self.count[r] == 0 {
+            self.filter &= !(1 << r);
+        }
         Some(i)
     }
 }
@@ -257,6 +275,9 @@ pub struct Hierarchy<M> {
     events: EventQueue<Ev>,
     completions: Vec<Completion>,
     mem_buf: Vec<MemCompletion>,
+    /// The memory's next event, kept from one question to the next until the memory changes
+    /// (`None`: ask it): a chip asks every cycle, the memory changes at a few of them.
+    mem_next: Cell<Option<Option<u64>>>,
     now: u64,
     /// Every event at or before this cycle has been handled (events are only ever added
     /// after it), so advancing to it again is free.
@@ -333,6 +354,7 @@ impl<M: MemoryPort> Hierarchy<M> {
             events: EventQueue::with_capacity(1024),
             completions: Vec::new(),
             mem_buf: Vec::new(),
+            mem_next: Cell::new(None),
             now: 0,
             settled: None,
             memory_tags,
@@ -346,6 +368,7 @@ impl<M: MemoryPort> Hierarchy<M> {
         &self.memory
     }
     pub fn memory_mut(&mut self) -> &mut M {
+        self.mem_next.set(None);
         &mut self.memory
     }
     pub fn into_memory(self) -> M {
@@ -366,10 +389,21 @@ impl<M: MemoryPort> Hierarchy<M> {
 
     /// The next cycle at which anything happens, `None` when all is idle.
     pub fn next_event(&self) -> Option<u64> {
-        match (self.events.next_cycle(), self.memory.next_event()) {
+        match (self.events.next_cycle(), self.mem_next()) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
         }
+    }
+
+    /// The memory's next event (see `mem_next`).
+    #[inline]
+    fn mem_next(&self) -> Option<u64> {
+        if let Some(n) = self.mem_next.get() {
+            return n;
+        }
+        let n = self.memory.next_event();
+        self.mem_next.set(Some(n));
+        n
     }
 
     /// Handle everything due up to and including `cycle`.
@@ -449,8 +483,7 @@ impl<M: MemoryPort> Hierarchy<M> {
                 ready: t + lat,
                 hit,
             }
-        } else if node.cache.contains(r.addr) {
-            node.cache.lookup(r.addr, r.op);
+        } else if node.cache.lookup_if_present(r.addr, r.op) {
             Outcome::Done {
                 ready: t + lat,
                 hit: true,
@@ -528,7 +561,8 @@ impl<M: MemoryPort> Hierarchy<M> {
         while let Some((at, ev)) = self.events.pop_due(t) {
             self.handle(at, ev)?;
         }
-        if self.memory.next_event().is_some_and(|m| m <= t) {
+        if self.mem_next().is_some_and(|m| m <= t) {
+            self.mem_next.set(None);
             self.memory.advance_to(t);
             let mut buf = std::mem::take(&mut self.mem_buf);
             self.memory.drain_completions(&mut buf);
@@ -602,8 +636,7 @@ impl<M: MemoryPort> Hierarchy<M> {
             node.cache.stats.write_throughs += 1;
             node.wb_used += 1;
             self.send_down(n, t + lat, op.addr, MemOp::Write)?;
-        } else if node.cache.contains(op.addr) {
-            node.cache.lookup(op.addr, mem_op);
+        } else if node.cache.lookup_if_present(op.addr, mem_op) {
             if !op.write {
                 self.push(
                     t + lat,
@@ -683,6 +716,7 @@ impl<M: MemoryPort> Hierarchy<M> {
 
     /// Offer a line request of node `n` to memory, arriving at `t`.
     fn mem_send(&mut self, t: u64, n: usize, addr: u64, op: MemOp) -> Result<(), HierarchyError> {
+        self.mem_next.set(None);
         if t > 0 && self.memory.now().is_none_or(|m| m < t - 1) {
             self.memory.advance_to(t - 1);
         }

@@ -1,5 +1,6 @@
-//! Simulation speed: requests per second on one core for the GDDR5 presets (targets: 1 M/s for
-//! random traffic, 2 M/s for streaming) and a DDR4 comparison point.
+//! Simulation speed: requests per second on one core for the GDDR5 presets (issue 12's targets:
+//! 3 M/s for random traffic, 6 M/s for streaming; measured figures in docs/DRAM.md, "Speed")
+//! and a DDR4 comparison point.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rtsim_dram::config::preset_config;

@@ -263,11 +263,21 @@ pub(crate) struct Core {
     /// Kept conservative (never later than the unit could act): a unit that acts changes
     /// other units' wakes where it gives them something to do.
     wake: Vec<u64>,
-    /// The least of `wake`.
+    /// At most the least of `wake` (equal to it but where a unit's wake rose within the tick
+    /// it became due in: an early guess only costs a tick in which nothing is due).
     min_wake: u64,
     /// During a tick at `now`: bit `u` set iff `wake[u] <= now` (kept exact as wakes change
     /// within the tick), so the tick visits the due units without scanning the others.
     due: u64,
+    /// Bit `u` set iff `wake[u]` may have changed since the tick began (the units due then,
+    /// and every unit woken or given a wake since), so the tick's end takes the least wake
+    /// over these and the minimum of the others taken at its start, without a second scan.
+    touched: u64,
+    /// Bit `u` set iff `wake[u]` is not `u64::MAX` (a unit waiting for another has no wake),
+    /// so the tick's scan reads only the units that have one.
+    finite: u64,
+    /// The TRV stages' bits (every unit below the IST's).
+    stage_mask: u64,
     now: u64,
     /// Per unit: its TRV and stage (the IST and dispatch: unused).
     unit_trv: Vec<(u8, u8)>,
@@ -387,6 +397,9 @@ impl Core {
             wake: vec![0; units],
             min_wake: 0,
             due: 0,
+            touched: 0,
+            finite: u64::MAX >> (64 - units),
+            stage_mask: (1 << (units - 2)) - 1,
             now: 0,
             unit_trv: (0..units)
                 .map(|u| ((u / per_trv) as u8, (u % per_trv) as u8))
@@ -415,6 +428,8 @@ impl Core {
     fn wake_at(&mut self, u: usize, t: u64) {
         if self.wake[u] > t {
             self.wake[u] = t;
+            self.touched |= 1 << u;
+            self.finite |= 1 << u;
             self.min_wake = self.min_wake.min(t);
             if t <= self.now {
                 self.due |= 1 << u;
@@ -426,6 +441,12 @@ impl Core {
     #[inline]
     fn set_wake(&mut self, u: usize, w: u64) {
         self.wake[u] = w;
+        self.touched |= 1 << u;
+        if w == u64::MAX {
+            self.finite &= !(1 << u);
+        } else {
+            self.finite |= 1 << u;
+        }
         if w <= self.now {
             self.due |= 1 << u;
         } else {
@@ -433,18 +454,27 @@ impl Core {
         }
     }
 
-    /// The first unit from `from` on that is due (every unit with `all`), before `end`.
+    /// Whether unit `u` is due (every unit is with `all`).
     #[inline]
-    fn next_due(&self, from: usize, end: usize, all: bool) -> Option<usize> {
-        let live = if all { u64::MAX } else { self.due };
-        let m = live & (u64::MAX << from) & !(u64::MAX << end);
-        (m != 0).then(|| m.trailing_zeros() as usize)
+    fn is_due(&self, u: usize, all: bool) -> bool {
+        all || self.due & (1 << u) != 0
     }
 
-    /// The next due TRV stage from unit `*from` on, as (unit, TRV, stage); moves `*from` past it.
+    /// The next due TRV stage from unit `*from` on (every stage with `all`), as (unit, TRV,
+    /// stage); moves `*from` past it.
     #[inline]
     fn next_due_stage(&self, from: &mut usize, all: bool) -> Option<(usize, usize, usize)> {
-        let u = self.next_due(*from, self.ist_unit(), all)?;
+        let live = if all {
+            self.stage_mask
+        } else {
+            self.due & self.stage_mask
+        };
+        // `*from` is at most the IST's unit (< 64): the shift is defined.
+        let m = live >> *from;
+        if m == 0 {
+            return None;
+        }
+        let u = *from + m.trailing_zeros() as usize;
         *from = u + 1;
         let (k, i) = self.unit_trv[u];
         Some((u, k as usize, i as usize))
@@ -463,15 +493,31 @@ impl Core {
             return Ok(());
         }
         self.now = t;
-        self.due = self
-            .wake
-            .iter()
-            .enumerate()
-            .fold(0, |m, (u, &w)| m | (u64::from(w <= t) << u));
+        // One scan: the due units, and the least wake of the others (which only a wake-up in
+        // this tick can change, and that marks the unit touched).
+        let (mut due, mut rest) = (0u64, u64::MAX);
+        let mut m = self.finite;
+        while m != 0 {
+            let u = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let w = self.wake[u];
+            if w <= t {
+                due |= 1 << u;
+            } else {
+                rest = rest.min(w);
+            }
+        }
+        self.due = due;
+        self.touched = due;
         self.exits(t, all, env)?;
         self.entries(t, all, env, hier)?;
         self.dispatch(t, all, env)?;
-        self.min_wake = self.wake.iter().copied().min().unwrap_or(u64::MAX);
+        let mut m = self.touched;
+        while m != 0 {
+            rest = rest.min(self.wake[m.trailing_zeros() as usize]);
+            m &= m - 1;
+        }
+        self.min_wake = rest;
         Ok(())
     }
 
@@ -567,7 +613,7 @@ impl Core {
                 self.trvs[k].leave_pipes(t);
             }
         }
-        if self.next_due(ist, ist + 1, all).is_some() {
+        if self.is_due(ist, all) {
             while let Some(slot) = self.ist.stage.pipe.head(t) {
                 if !self.route(t, slot, true, env)? {
                     self.ist.stage.pipe.block(t);
@@ -685,7 +731,7 @@ impl Core {
             let w = self.stage_wake(&trv.stages[i], None, &trv.rau, boxes, t, env);
             self.set_wake(v, w);
         }
-        if self.next_due(u, u + 1, all).is_some() {
+        if self.is_due(u, all) {
             self.enter_ist(t, env, hier)?;
             let ist = &self.ist;
             let w = self.stage_wake(&ist.stage, Some(&ist.looped), &ist.rau, None, t, env);
@@ -950,7 +996,7 @@ impl Core {
     /// short stack and room in the queue of its first step; at most one ray per cycle.
     fn dispatch(&mut self, t: u64, all: bool, env: &Env<'_>) -> Result<(), SgrtError> {
         let rd = self.rd_unit();
-        if self.next_due(rd, rd + 1, all).is_none() {
+        if !self.is_due(rd, all) {
             return Ok(());
         }
         self.dispatch_one(t, env)?;

@@ -54,7 +54,7 @@ pub struct Channel {
     use_alts: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
-    /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 8 + k`, kept
+    /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 4 + k`, kept
     /// current after each command for the kinds it raises. An offer's earliest cycle is the
     /// larger of its bank's own ready time and its entry here, so a command touches only the
     /// few entries it raises instead of every bank's offer.
@@ -74,6 +74,8 @@ pub struct Channel {
     /// All cycles below this have been simulated.
     done_below: u64,
     banks_per_rank: usize,
+    /// log2(`banks_per_rank`) (a power of two, `config::Organisation`): a bank's rank is a shift.
+    rank_shift: u32,
     cl: u64,
     cwl: u64,
     burst: u64,
@@ -105,8 +107,8 @@ impl Channel {
             index,
             engine: Engine::new(spec),
             q: RequestQueues::new(policy, banks, o.ranks as usize),
-            offers: Offers::new(banks),
-            alts: Offers::new(banks),
+            offers: Offers::new(banks, o.banks_per_group as usize),
+            alts: Offers::new(banks, o.banks_per_group as usize),
             use_alts: !ctl.protect_row_hits || ctl.scheduler == SchedulerKind::UsimmFcfs,
             merged_list: Vec::with_capacity(
                 (ctl.read_queue + ctl.write_queue) as usize
@@ -126,6 +128,7 @@ impl Channel {
             next_event: u64::MAX,
             done_below: 0,
             banks_per_rank: o.banks_per_rank as usize,
+            rank_shift: o.banks_per_rank.trailing_zeros(),
             cl: spec.t.cl,
             cwl: spec.t.cwl,
             burst: spec.t.burst,
@@ -355,7 +358,8 @@ impl Channel {
 
     #[inline]
     fn rank_blocked(&self, rank: usize) -> bool {
-        self.refresh.pending[rank] || self.engine.is_powered_down(rank)
+        (self.refresh.any_pending() || self.engine.any_powered_down())
+            && (self.refresh.pending[rank] || self.engine.is_powered_down(rank))
     }
 
     /// The kind of request being served: writes in write-drain mode, else reads.
@@ -369,11 +373,19 @@ impl Channel {
     }
 
     /// Recompute the offers of banks whose inputs changed.
+    #[inline]
     fn settle_candidates(&mut self) {
+        if !self.dirty_list.is_empty() {
+            self.settle_dirty();
+        }
+    }
+
+    /// [`Channel::settle_candidates`] when some bank is dirty.
+    fn settle_dirty(&mut self) {
         while let Some(b) = self.dirty_list.pop() {
             let b = b as usize;
             self.dirty[b] = false;
-            let rank = b / self.banks_per_rank;
+            let rank = b >> self.rank_shift;
             let (offer, alt) = if self.rank_blocked(rank) {
                 (None, None)
             } else {
@@ -582,7 +594,7 @@ impl Channel {
 
     fn issue(&mut self, c: Choice, t: u64) {
         let b = c.bank;
-        let rank = b / self.banks_per_rank;
+        let rank = b >> self.rank_shift;
         let mut cmd = c.cmd;
         let mut auto_close = false;
         if matches!(cmd, Cmd::Rd | Cmd::Wr)
@@ -749,7 +761,10 @@ impl Channel {
     fn exact_next_event(&self, from: u64) -> u64 {
         debug_assert!(self.dirty_list.is_empty());
         let alts = self.use_alts.then_some(&self.alts);
-        let min = self.offers.scan(alts, &self.shared, 0).min_ready;
+        let mut min = self.offers.min_ready(&self.shared);
+        if let Some(a) = alts {
+            min = min.min(a.min_ready(&self.shared));
+        }
         self.next_event_from(from, min)
     }
 
@@ -847,8 +862,9 @@ impl Channel {
     }
 }
 
-/// Stride of a bank group's entries in the calendar of shared ready times (one per kind).
-const SHARED_STRIDE: usize = 8;
+/// Stride of a bank group's entries in the calendar of shared ready times (one per kind, so
+/// that the scans over the entries have no gaps).
+const SHARED_STRIDE: usize = BANK_KINDS;
 /// Entries of the calendar: every bank group of a channel (at most 16 ranks × 16 groups,
 /// `config::Organisation`'s limits). A fixed power-of-two size lets the scan index it without
 /// bounds checks.
@@ -857,13 +873,30 @@ type Calendar = [u64; CALENDAR_LEN];
 /// Bank commands (ACT, PRE, RD, WR) as next commands: the kinds banks offer.
 const BANK_KINDS: usize = 4;
 
-/// One offer per bank: the candidate, and apart from it, packed for the per-cycle scan over
-/// the banks, its priority, the bank's own ready time for it and where its shared ready time is
-/// in the channel's calendar.
+/// One offer per bank: the candidate, and apart from it, packed for the scans, its priority,
+/// the bank's own ready time for it and where its shared ready time is in the channel's
+/// calendar. The banks offering are also filed by calendar entry (bank group and kind): a
+/// bitmask of them and the smallest of their own ready times. An entry's offers are all ready
+/// no earlier than the larger of that minimum and the shared time, so the earliest ready time
+/// of all offers takes one look per entry, and choosing looks only at the banks of entries
+/// that can be ready, instead of at every bank.
 #[derive(Clone, Debug)]
 struct Offers {
     cand: Vec<Candidate>,
     slots: Vec<OfferSlot>,
+    /// The banks offering each calendar entry's kind, by calendar index.
+    entries: Vec<CalendarOffers>,
+    banks_per_group: usize,
+}
+
+/// The offers of one calendar entry (a bank group and a kind).
+#[derive(Clone, Copy, Debug)]
+struct CalendarOffers {
+    /// Bit `j`: bank `group × banks_per_group + j` offers the kind (at most 64 banks per group,
+    /// `config::Organisation`'s limit).
+    members: u64,
+    /// The smallest `OfferSlot::local` among the members (`u64::MAX` if none).
+    min_local: u64,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -874,7 +907,7 @@ struct OfferSlot {
     local: u64,
     /// [`scheduler::priority`] of the offer (smaller wins).
     priority: u64,
-    /// Index of the offer's shared ready time in the calendar (`group × 8 + kind`).
+    /// Index of the offer's shared ready time in the calendar (`group × 4 + kind`).
     shared_at: usize,
 }
 
@@ -902,28 +935,112 @@ struct Pick {
 }
 
 impl Offers {
-    fn new(banks: usize) -> Self {
+    fn new(banks: usize, banks_per_group: usize) -> Self {
+        let entries = banks / banks_per_group * SHARED_STRIDE;
         Offers {
             cand: vec![Candidate::NONE; banks],
             slots: vec![OfferSlot::NONE; banks],
+            entries: vec![
+                CalendarOffers {
+                    members: 0,
+                    min_local: u64::MAX,
+                };
+                entries
+            ],
+            banks_per_group,
         }
     }
 
     /// Bank `b` offers `c` (or nothing).
-    #[inline]
+    #[inline(always)]
     fn set(&mut self, b: usize, c: Option<Candidate>, sched: SchedulerKind, engine: &Engine) {
+        // Banks per group is a power of two (`config::Organisation`).
+        let j = b & (self.banks_per_group - 1);
+        let bit = 1u64 << j;
+        let old = self.slots[b];
+        if old.local != u64::MAX {
+            // Leave the old entry; its minimum is recomputed if it was this bank's.
+            let e = &mut self.entries[old.shared_at];
+            e.members &= !bit;
+            if old.local == e.min_local {
+                let group = &self.slots[b - j..][..self.banks_per_group];
+                let mut min = u64::MAX;
+                let mut m = e.members;
+                while m != 0 {
+                    min = min.min(group[m.trailing_zeros() as usize % group.len()].local);
+                    m &= m - 1;
+                }
+                e.min_local = min;
+            }
+        }
         self.slots[b] = match c {
             Some(c) => {
                 let k = usize::from(c.kind);
                 self.cand[b] = c;
-                OfferSlot {
+                let slot = OfferSlot {
                     local: engine.bank_ready(k, b),
                     priority: scheduler::priority(sched, &c),
                     shared_at: engine.group_index(b) * SHARED_STRIDE + k,
-                }
+                };
+                let e = &mut self.entries[slot.shared_at];
+                e.members |= bit;
+                e.min_local = e.min_local.min(slot.local);
+                slot
             }
             None => OfferSlot::NONE,
         };
+    }
+
+    /// The earliest ready time of any offer (`u64::MAX` if none): one look per calendar entry.
+    #[inline]
+    fn min_ready(&self, shared: &Calendar) -> u64 {
+        let mut min = u64::MAX;
+        for (i, e) in self.entries.iter().enumerate() {
+            if e.members != 0 {
+                min = min.min(e.min_local.max(shared[i % CALENDAR_LEN]));
+            }
+        }
+        min
+    }
+
+    /// The ready offer of highest priority at `t` among the entries' members (the lowest bank
+    /// among equals), offers whose bank's `primary` offer is ready excepted when given (an
+    /// alternative yields to its bank's offer); `best` is updated in place, and the earliest
+    /// ready time of all is returned.
+    #[inline]
+    fn pick(
+        &self,
+        primary: Option<&Offers>,
+        shared: &Calendar,
+        t: u64,
+        best: &mut (u64, usize, bool),
+    ) -> u64 {
+        let mut min = u64::MAX;
+        for (i, e) in self.entries.iter().enumerate() {
+            if e.members == 0 {
+                continue;
+            }
+            let r = e.min_local.max(shared[i % CALENDAR_LEN]);
+            min = min.min(r);
+            if r > t {
+                continue;
+            }
+            // The shared time has passed: the members whose own time has are ready.
+            let base = i / SHARED_STRIDE * self.banks_per_group;
+            let mut bits = e.members;
+            while bits != 0 {
+                let b = base + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let o = &self.slots[b];
+                if o.local > t || primary.is_some_and(|p| p.slots[b].ready(shared) <= t) {
+                    continue;
+                }
+                if o.priority < best.0 || (o.priority == best.0 && b < best.1) {
+                    *best = (o.priority, b, primary.is_some());
+                }
+            }
+        }
+        min
     }
 
     /// The ready offer of highest priority at `t` (the lowest bank among equals), where an
@@ -932,34 +1049,9 @@ impl Offers {
     #[inline]
     fn scan(&self, alts: Option<&Offers>, shared: &Calendar, t: u64) -> Pick {
         let mut best = (u64::MAX, usize::MAX, false);
-        let mut min = u64::MAX;
-        match alts {
-            None => {
-                for (b, o) in self.slots.iter().enumerate() {
-                    let r = o.ready(shared);
-                    min = min.min(r);
-                    if r <= t && o.priority < best.0 {
-                        best = (o.priority, b, false);
-                    }
-                }
-            }
-            Some(a) => {
-                for (b, (o, oa)) in self.slots.iter().zip(&a.slots).enumerate() {
-                    let r = o.ready(shared);
-                    let ra = oa.ready(shared);
-                    min = min.min(r).min(ra);
-                    let (p, alt) = if r <= t {
-                        (o.priority, false)
-                    } else if ra <= t {
-                        (oa.priority, true)
-                    } else {
-                        continue;
-                    };
-                    if p < best.0 {
-                        best = (p, b, alt);
-                    }
-                }
-            }
+        let mut min = self.pick(None, shared, t, &mut best);
+        if let Some(a) = alts {
+            min = min.min(a.pick(Some(self), shared, t, &mut best));
         }
         Pick {
             best: (best.1 != usize::MAX).then_some((best.1, best.2)),

@@ -107,6 +107,8 @@ fn oldest_miss(q: &RequestQueues, list: &[u32], open_row: u32) -> Option<u32> {
 /// The offer of bank `b` for the requests in `list` (oldest first; reads, writes or both),
 /// with `open_row` open (or CLOSED), and its alternative: the command considered when the
 /// offer cannot issue this cycle (USIMM's FCFS, and FR-FCFS/FCFS without row-hit protection).
+/// Inlined into the controller's settling loop: its two offers then stay in registers.
+#[inline]
 pub fn bank_offers(
     kind: SchedulerKind,
     row_hit_cap: u32,
