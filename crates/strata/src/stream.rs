@@ -178,7 +178,14 @@ pub struct StreamMemory {
     next: Vec<u32>,
     heads: Vec<u32>,
     counts: Vec<u32>,
-    free: u32,
+    /// One free list per bank (slot `s` in bank `s mod banks`): a push can take a slot in
+    /// any bank whose port is free this cycle, not only the one slot a single free list
+    /// offers (which is usually the slot a pop just freed, in the bank that pop used). The
+    /// extra heads are registers in the banks' controllers (assumed; not counted against the
+    /// capacity, like the single head they replace would be 1 pointer).
+    free: Vec<u32>,
+    /// The bank the next [`StreamMemory::push`] tries first (rotating).
+    rr: u32,
     len: u32,
     stats: StreamStats,
 }
@@ -202,9 +209,17 @@ impl StreamMemory {
             },
         )?;
         let n = layout.slots as usize;
-        // Free list: 0 → 1 → … → n−1, so the first pushes fill slots in order.
-        let next = (1..=n as u32)
-            .map(|k| if k as usize == n { NULL } else { k })
+        let banks = cfg.banks;
+        // Free lists: bank k holds k → k + banks → …, so the first pushes (rotating over
+        // the banks) fill slots in order.
+        let next = (0..n as u32)
+            .map(|s| {
+                let t = s as u64 + banks as u64;
+                if t < n as u64 { t as u32 } else { NULL }
+            })
+            .collect();
+        let free = (0..banks)
+            .map(|k| if (k as usize) < n { k } else { NULL })
             .collect();
         Ok(StreamMemory {
             layout,
@@ -213,7 +228,8 @@ impl StreamMemory {
             next,
             heads: vec![NULL; buffers as usize],
             counts: vec![0; buffers as usize],
-            free: 0,
+            free,
+            rr: 0,
             len: 0,
             stats: StreamStats {
                 bank_accesses: vec![0; cfg.banks as usize],
@@ -260,9 +276,9 @@ impl StreamMemory {
         (h != NULL).then_some(h % self.banks)
     }
 
-    /// The bank the next push writes (the free list's head slot's), if a slot is free.
-    pub fn push_bank(&self) -> Option<u32> {
-        (self.free != NULL).then_some(self.free % self.banks)
+    /// Whether bank `bank` has a free slot.
+    pub fn has_free(&self, bank: u32) -> bool {
+        self.free[bank as usize] != NULL
     }
 
     /// The bank of path `id`'s state record (record `id` sits beside slot `id`).
@@ -291,10 +307,28 @@ impl StreamMemory {
         }
     }
 
-    /// Push `ray` onto buffer `b`; returns the slot it went to.
+    /// Push `ray` onto buffer `b` into a slot of the first bank with a free slot, rotating
+    /// over the banks from one push to the next; returns the slot it went to.
     pub fn push(&mut self, b: u32, ray: &RayRecord) -> Result<u32, StreamError> {
+        let bank = (0..self.banks)
+            .map(|k| (self.rr + k) % self.banks)
+            .find(|&k| self.has_free(k));
+        let Some(bank) = bank else {
+            self.check_buffer(b)?;
+            self.stats.overflows += 1;
+            return Err(StreamError::Full {
+                slots: self.layout.slots,
+            });
+        };
+        self.rr = (bank + 1) % self.banks;
+        self.push_in(b, ray, bank)
+    }
+
+    /// Push `ray` onto buffer `b` into a free slot of bank `bank` (which must have one:
+    /// [`StreamMemory::has_free`]); returns the slot.
+    pub fn push_in(&mut self, b: u32, ray: &RayRecord, bank: u32) -> Result<u32, StreamError> {
         self.check_buffer(b)?;
-        let slot = self.free;
+        let slot = self.free[bank as usize];
         if slot == NULL {
             self.stats.overflows += 1;
             return Err(StreamError::Full {
@@ -302,7 +336,7 @@ impl StreamMemory {
             });
         }
         let s = slot as usize;
-        self.free = self.next[s];
+        self.free[bank as usize] = self.next[s];
         self.records[s] = *ray;
         self.next[s] = self.heads[b as usize];
         self.heads[b as usize] = slot;
@@ -324,8 +358,9 @@ impl StreamMemory {
         }
         let s = slot as usize;
         self.heads[b as usize] = self.next[s];
-        self.next[s] = self.free;
-        self.free = slot;
+        let f = &mut self.free[(slot % self.banks) as usize];
+        self.next[s] = *f;
+        *f = slot;
         self.counts[b as usize] -= 1;
         self.len -= 1;
         self.stats.pops += 1;
@@ -365,7 +400,17 @@ impl StreamMemory {
             }
             total += k;
         }
-        let free = walk(self.free, "free list")?;
+        let mut free = 0;
+        for (k, &h) in self.free.iter().enumerate() {
+            free += walk(h, &format!("free list of bank {k}"))?;
+            let mut s = h;
+            while s != NULL {
+                if s % self.banks != k as u32 {
+                    return Err(format!("slot {s} on the free list of bank {k}"));
+                }
+                s = self.next[s as usize];
+            }
+        }
         if total != self.len || total + free != n as u32 {
             return Err(format!(
                 "{total} rays in buffers + {free} free != {n} slots (len {})",

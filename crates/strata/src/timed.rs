@@ -85,8 +85,9 @@ pub struct StrataFacts {
     /// the TM must reconfigure and still has TPs holding rays.
     pub empty_polls: u64,
     pub drain_waits: u64,
-    /// Stream accesses that waited a cycle for their bank.
+    /// Stream accesses that waited a cycle for their bank: pops, pushes, path records.
     pub bank_conflicts: u64,
+    pub bank_conflicts_by_op: [u64; 3],
     /// Triangle tests that waited for a pipeline instance.
     pub pipeline_waits: u64,
     /// Pushes by cause: a path's ray entering the root buffer, a node-treelet crossing, a
@@ -634,13 +635,20 @@ impl<'a> StrataSource<'a> {
         }
     }
 
-    fn bank_free(&mut self, bank: u32, t: u64) -> bool {
+    /// Whether bank `bank` has a port left at cycle `t`.
+    fn port_free(&self, bank: u32, t: u64) -> bool {
+        let b = self.banks[bank as usize];
+        b.0 != t || b.1 < self.cfg.stream.ports_per_bank
+    }
+
+    fn bank_free(&mut self, bank: u32, t: u64, op: usize) -> bool {
         let b = &mut self.banks[bank as usize];
         if b.0 != t {
             *b = (t, 0);
         }
         if b.1 >= self.cfg.stream.ports_per_bank {
             self.facts.bank_conflicts += 1;
+            self.facts.bank_conflicts_by_op[op] += 1;
             return false;
         }
         b.1 += 1;
@@ -706,7 +714,7 @@ impl<'a> StrataSource<'a> {
         }
         let b = self.tms[tm].treelet.expect("a treelet");
         let bank = self.stream.pop_bank(b).expect("the buffer holds a ray");
-        if !self.bank_free(bank, t) {
+        if !self.bank_free(bank, t, 0) {
             return Ok(SourceAccess::Busy {
                 retry_at: t + 1,
                 stall: Stall::Stream,
@@ -812,16 +820,22 @@ impl Source for StrataSource<'_> {
                 ChipError::Config(rtsim_config::ConfigError::key("arch.strata", e.to_string()))
             })?,
             (_, Mem::Stream(StreamOp::Push)) => {
-                let Some(bank) = self.stream.push_bank() else {
-                    unreachable!("one ray per path slot: the stream memory never overflows");
-                };
-                if !self.bank_free(bank, t) {
+                // Any bank with a free port and a free slot, trying the TP's own first.
+                let n = self.cfg.stream.banks;
+                let first = tp as u32 % n;
+                let bank = (0..n)
+                    .map(|k| (first + k) % n)
+                    .find(|&k| self.stream.has_free(k) && self.port_free(k, t));
+                let Some(bank) = bank else {
+                    self.facts.bank_conflicts += 1;
+                    self.facts.bank_conflicts_by_op[1] += 1;
                     return Ok(busy);
-                }
+                };
+                assert!(self.bank_free(bank, t, 1), "the port was free");
                 let (b, rec) = self.tps[tp].outgoing.take().expect("a ray to push");
                 let old = self.stream.count(b);
                 self.stream
-                    .push(b, &rec)
+                    .push_in(b, &rec, bank)
                     .expect("one ray per path slot: the stream memory never overflows");
                 self.ready.update(b, old, old + 1);
                 SourceAccess::Done { ready: t + 1 }
@@ -829,7 +843,7 @@ impl Source for StrataSource<'_> {
             (_, Mem::Stream(op @ (StreamOp::PathRead | StreamOp::PathWrite))) => {
                 let id = self.tps[tp].path.expect("a path");
                 let bank = self.stream.path_bank(id);
-                if !self.bank_free(bank, t) {
+                if !self.bank_free(bank, t, 2) {
                     return Ok(busy);
                 }
                 self.stream.path_access(id, op == StreamOp::PathWrite);
