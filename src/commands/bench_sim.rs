@@ -1,4 +1,5 @@
-//! `rtsim bench-sim`: how fast the TRaX chip model runs (issue 8 §7) — simulated core cycles,
+//! `rtsim bench-sim`: how fast the TRaX chip model runs (issue 8 §7; `--arch strata` for
+//! STRaTA on it, issue 10 §6) — simulated core cycles,
 //! TP-cycles (cycles × TPs, the figure other simulators print) and instructions per host
 //! second, and the process's peak memory — for the full 4,096-TP chip on Sibenik by default.
 //!
@@ -34,10 +35,12 @@ pub struct BenchSimArgs {
 
 pub fn run(mut args: BenchSimArgs) -> Result<()> {
     let a = &mut args.sim;
-    if a.arch.as_deref().is_some_and(|p| p != "trax-baseline") {
-        anyhow::bail!("bench-sim measures the TRaX chip: --arch must be trax-baseline");
+    let arch = a.arch.get_or_insert_with(|| "trax-baseline".into()).clone();
+    if arch != "trax-baseline" && arch != "strata" {
+        anyhow::bail!(
+            "bench-sim measures the TRaX chip: --arch must be trax-baseline or strata, not {arch}"
+        );
     }
-    a.arch = Some("trax-baseline".into());
     a.scene.scene.get_or_insert_with(|| "sibenik".into());
     if !args.full {
         a.frame.cycle_limit.get_or_insert(DEFAULT_CYCLES);
@@ -46,7 +49,19 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
     let flags = simulate::flags(a)?;
     let load_before = load_average();
     let s = session::open(&a.scene, &flags, false)?;
-    let ran = simulate::trax::frame(&s)?;
+    let (ran, strata) = if arch == "strata" {
+        let r = simulate::strata::frame(&s)?;
+        let ran = simulate::trax::Ran {
+            out: r.out.out,
+            params: r.params,
+            pixels: r.pixels,
+            seconds: r.seconds,
+            cpu_seconds: r.cpu_seconds,
+        };
+        (ran, Some(r.out.strata))
+    } else {
+        (simulate::trax::frame(&s)?, None)
+    };
     let load_after = load_average();
     let r = &ran.out.report;
     let cfg = &s.resolved.config;
@@ -114,6 +129,15 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
         "BVH build        {:.2} s (not in the rates)",
         s.build_seconds
     );
+    if let Some(f) = strata {
+        println!(
+            "stream memory    {} pushes, {} pops, {} treelet switches, {} reconfigurations",
+            thousands(f.stream.pushes),
+            thousands(f.stream.pops),
+            thousands(f.treelet_switches),
+            thousands(f.reconfigurations)
+        );
+    }
     Ok(())
 }
 

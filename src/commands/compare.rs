@@ -2,6 +2,8 @@
 //! `--arch sgrt-sptrv --arch sgrt`), optionally averaged over the scene's viewpoints as the
 //! paper averages over five; prints Mrays/s, steps per ray, utilisations and hit rates per
 //! preset and the speed and step ratios against the first, and writes `compare.json`.
+//! On the TRaX chip (`--arch trax-baseline --arch strata`): the STRaTA paper's Tables 1 and 3
+//! for the scene, ours beside the paper's (`strata_tables`).
 
 use crate::cli::SceneArgs;
 use crate::commands::simulate::{FrameArgs, sgrt};
@@ -90,6 +92,13 @@ fn viewpoints(args: &CompareArgs, frame: &[Flag]) -> Result<Vec<Option<u32>>> {
 }
 
 pub fn run(args: CompareArgs) -> Result<()> {
+    if args
+        .archs
+        .iter()
+        .all(|a| a == "trax-baseline" || a == "strata")
+    {
+        return super::compare_strata::run(&args);
+    }
     let frame = args.frame.flags()?;
     let views = viewpoints(&args, &frame)?;
     let mut runs = Vec::new();
@@ -108,7 +117,8 @@ pub fn run(args: CompareArgs) -> Result<()> {
         for arch in &args.archs {
             anyhow::ensure!(
                 arch.starts_with("sgrt"),
-                "rtsim compare runs the SGRT presets (sgrt, sgrt-sptrv, sgrt-1); got `{arch}`"
+                "rtsim compare runs the SGRT presets (sgrt, sgrt-sptrv, sgrt-1) or the TRaX \
+                 chip's (trax-baseline, strata), not a mix; got `{arch}`"
             );
             let mut flags = frame.clone();
             flags.push(("arch.preset", Value::String(arch.clone())));

@@ -5,6 +5,7 @@ pub mod bench_sim;
 pub mod bvh_stats;
 pub mod cache;
 pub mod compare;
+pub mod compare_strata;
 pub mod dram;
 pub mod export;
 pub mod render;

@@ -27,6 +27,9 @@ pub struct ArchConfig {
     /// The TRaX chip (`trax-baseline`): every parameter, documented in
     /// `rtsim_trax::TraxConfig` and `docs/TRAX.md`.
     pub trax: rtsim_trax::TraxConfig,
+    /// STRaTA's additions to the TRaX chip (`strata` preset): every parameter, documented in
+    /// `rtsim_strata::StrataConfig` and `docs/STRATA.md`.
+    pub strata: rtsim_strata::StrataConfig,
 }
 
 impl Default for ArchConfig {
@@ -35,6 +38,7 @@ impl Default for ArchConfig {
             preset: DEFAULT.into(),
             sgrt: rtsim_sgrt::SgrtConfig::default(),
             trax: rtsim_trax::TraxConfig::default(),
+            strata: rtsim_strata::StrataConfig::default(),
         }
     }
 }
@@ -44,12 +48,18 @@ impl ArchConfig {
     pub fn is_trax(&self) -> bool {
         self.preset == "trax-baseline"
     }
+
+    /// Whether the run's machine is STRaTA on the TRaX chip.
+    pub fn is_strata(&self) -> bool {
+        self.preset == "strata"
+    }
 }
 
 impl Validate for ArchConfig {
     fn validate(&self) -> Result<(), ConfigError> {
         preset(&self.preset)?;
         self.sgrt.validate()?;
+        self.strata.validate()?;
         self.trax.validate()
     }
 }
@@ -120,7 +130,34 @@ pub const ARCH_PRESETS: &[ArchPreset] = &[
                 GDDR5): cycle-level timing and energy (docs/TRAX.md)",
         toml: TRAX_BASELINE,
     },
+    ArchPreset {
+        name: "strata",
+        about: "STRaTA on the TRaX chip: 512 KB L2 + 4 MB ray stream memory, 16 KB treelets, \
+                bit-stack traversal, fused box/triangle pipelines (docs/STRATA.md)",
+        toml: STRATA,
+    },
 ];
+
+/// STRaTA (Kopta et al. 2015): the baseline chip (`arch.trax.*` defaults) with the stream
+/// memory and fused pipelines (`arch.strata.*` defaults, each cited in
+/// `rtsim_strata::StrataConfig`); the preset picks what STRaTA needs from the other sections.
+const STRATA: &str = r#"
+[trace]
+# STRaTA §3.2: the bit-stack traversal (a ray carries a 4-byte stack); §3.3: the Plücker
+# test of the triangle pipeline.
+traversal = "bit-stack"
+triangle_test = "plucker"
+
+[memory]
+# STRaTA §3.1: node and triangle treelets the size of the L1 (16 KB), with parent pointers.
+layout = "treelets"
+parent_pointers = true
+treelet_bytes = 16384
+
+[dram]
+# The baseline's DRAM (Table 1 compares the two on the same memory).
+preset = "gddr5-trax"
+"#;
 
 /// The TRaX baseline: the chip's own parameters are `arch.trax.*`'s defaults (each cited in
 /// `rtsim_trax::TraxConfig`); the preset picks what the chip needs from the other sections.

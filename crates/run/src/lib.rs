@@ -147,6 +147,13 @@ impl Validate for RunConfig {
         if self.arch.is_trax() {
             self.arch.trax.validate_run(&self.trace)?;
         }
+        if self.arch.is_strata() {
+            self.arch.strata.validate_run(
+                &self.trace,
+                &self.memory,
+                self.arch.trax.l1.size_bytes,
+            )?;
+        }
         let (w, h, _) = self.workload.resolved_size();
         self.sim.validate_for(w, h)?;
         self.dram.validate().map_err(|e| e.under("dram"))?;

@@ -120,6 +120,26 @@ pub struct StrataConfig {
     /// Sibenik at 320 × 320 the functional flow needs 23× more rounds with 1 than with no
     /// limit, `docs/STRATA.md`). Each TM on a buffer loads the treelet into its own L1.
     pub tms_per_buffer: u32,
+    /// Fused box and triangle pipelines (STRaTA §3.3). Default true. Needs streaming: without
+    /// treelets a TM would reconfigure for every ray (§5.3: "reconfiguring the pipelines for
+    /// individual rays would add significant overhead").
+    pub fused: bool,
+    /// Triangle pipeline instances per TM, 1..=2. Default 2 (`DESIGN.md` §3: the paper's
+    /// "issue width of two" read as two instances, 4 mul + 2 add each).
+    pub triangle_pipelines: u32,
+    /// Cycles a TM needs to reconfigure its units between the box and the triangle
+    /// pipelines, 0..=1000. Default 1 (assumed: the paper gives none; the switch rewrites the
+    /// multiplexers' configuration register once the TM has drained).
+    pub reconfigure_cycles: u32,
+    /// Cycles between a TP's attempts to pop when no buffer it may take holds a ray,
+    /// 1..=1024. Default 16 (assumed: the paper's simulator has no such wait; a TP polling
+    /// the head table every cycle would only cost simulation time).
+    pub poll_cycles: u32,
+    /// Bytes of a path's state record (pixel, sample, depth, throughput, radiance, pending
+    /// light, random state) kept in the stream memory beside the ray buffers, one per ray slot
+    /// (a path has one ray at a time), 32..=256, a multiple of 4. Default 64 (assumed: our
+    /// path tracer's state in one line; `docs/STRATA.md` "Path state").
+    pub path_bytes: u32,
 }
 
 impl Default for StrataConfig {
@@ -130,6 +150,11 @@ impl Default for StrataConfig {
             l2_bytes: L2_BYTES_DEFAULT,
             policy: Policy::MostRays,
             tms_per_buffer: 0,
+            fused: true,
+            triangle_pipelines: 2,
+            reconfigure_cycles: 1,
+            poll_cycles: 16,
+            path_bytes: 64,
         }
     }
 }
@@ -176,6 +201,22 @@ impl Validate for StrataConfig {
             ));
         }
         check_range(&key("tms_per_buffer"), self.tms_per_buffer, 0, 4096)?;
+        check_range(&key("triangle_pipelines"), self.triangle_pipelines, 1, 2)?;
+        check_range(&key("reconfigure_cycles"), self.reconfigure_cycles, 0, 1000)?;
+        check_range(&key("poll_cycles"), self.poll_cycles, 1, 1024)?;
+        if !(32..=256).contains(&self.path_bytes) || self.path_bytes % 4 != 0 {
+            return Err(ConfigError::range(
+                &key("path_bytes"),
+                self.path_bytes,
+                "a multiple of 4 in 32..=256",
+            ));
+        }
+        if self.fused && !self.streaming {
+            return Err(ConfigError::key(
+                &key("fused"),
+                "the fused pipelines need treelet streaming (a TM reconfigures per treelet,                  not per ray; STRaTA §5.3): set arch.strata.streaming = true or                  arch.strata.fused = false",
+            ));
+        }
         Ok(())
     }
 }
@@ -340,6 +381,7 @@ mod tests {
         // Streaming off: the baseline's traversal is fine.
         let off = StrataConfig {
             streaming: false,
+            fused: false,
             ..StrataConfig::default()
         };
         off.validate_run(&TraceConfig::default(), &linear, 16 << 10)
@@ -354,6 +396,7 @@ mod tests {
         assert_eq!(on.chip(&trax).l1, trax.l1);
         let off = StrataConfig {
             streaming: false,
+            fused: false,
             ..StrataConfig::default()
         };
         assert_eq!(off.chip(&trax), trax);

@@ -236,7 +236,7 @@ struct Path {
 
 /// The buffers a TM may take, ordered for both policies.
 #[derive(Debug, Default)]
-struct Ready {
+pub(crate) struct Ready {
     by_count: BTreeSet<(u32, Reverse<u32>)>,
     by_id: BTreeSet<u32>,
 }
@@ -247,7 +247,7 @@ impl Ready {
     /// unclaimed rays, the count minus `tps` for every TM already on it (with one TM per
     /// buffer, simply the count), ties to the lowest id, and never takes a fully claimed one;
     /// `round-robin` takes the first after `cursor` in id order, wrapping, and moves it.
-    fn pick(
+    pub(crate) fn pick(
         &self,
         policy: Policy,
         holders: &[u32],
@@ -291,7 +291,7 @@ impl Ready {
         }
     }
 
-    fn update(&mut self, b: u32, old: u32, new: u32) {
+    pub(crate) fn update(&mut self, b: u32, old: u32, new: u32) {
         if old > 0 {
             self.by_count.remove(&(old, Reverse(b)));
         }

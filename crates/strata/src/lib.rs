@@ -24,8 +24,11 @@
 
 pub mod config;
 pub mod flow;
+pub mod paper;
 pub mod pipeline;
+pub mod program;
 pub mod stream;
+pub mod timed;
 pub mod world;
 
 pub use config::{Policy, StrataConfig, StreamConfig};

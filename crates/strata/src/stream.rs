@@ -49,6 +49,9 @@ pub struct StreamLayout {
     pub pointer_bits: u32,
     /// Ray slots.
     pub slots: u32,
+    /// Bytes of the path-state record kept beside each slot (0: none; the timed chip keeps
+    /// one per slot, `docs/STRATA.md` "Path state").
+    pub path_bytes: u32,
 }
 
 impl StreamLayout {
@@ -57,8 +60,17 @@ impl StreamLayout {
     /// pointer and a count; the free list a head pointer; all `p` bits wide with
     /// `p = ceil(log2(slots + 1))`.
     pub fn new(capacity_bytes: u64, buffers: u32) -> Option<StreamLayout> {
+        StreamLayout::with_path_table(capacity_bytes, buffers, 0)
+    }
+
+    /// [`StreamLayout::new`] with a `path_bytes` path-state record beside every slot.
+    pub fn with_path_table(
+        capacity_bytes: u64,
+        buffers: u32,
+        path_bytes: u32,
+    ) -> Option<StreamLayout> {
         let bits = capacity_bytes.checked_mul(8)?;
-        let record_bits = RAY_BYTES as u64 * 8;
+        let record_bits = (RAY_BYTES as u64 + path_bytes as u64) * 8;
         let mut best: Option<StreamLayout> = None;
         for p in 1..=32u64 {
             let fixed = (2 * buffers as u64 + 1) * p;
@@ -75,6 +87,7 @@ impl StreamLayout {
                     buffers,
                     pointer_bits: p as u32,
                     slots: slots as u32,
+                    path_bytes,
                 });
             }
         }
@@ -111,12 +124,16 @@ pub struct StreamStats {
     pub peak_buffer_rays: u32,
     /// Pushes refused because no slot was free (the one-for-one replacement keeps this 0).
     pub overflows: u64,
+    /// Path-state record reads and writes (the timed chip, which keeps them in the stream
+    /// memory; one access each).
+    pub path_reads: u64,
+    pub path_writes: u64,
 }
 
 impl StreamStats {
-    /// Accesses: pushes and pops.
+    /// Accesses: pushes, pops and path-state reads and writes.
     pub fn accesses(&self) -> u64 {
-        self.pushes + self.pops
+        self.pushes + self.pops + self.path_reads + self.path_writes
     }
 }
 
@@ -133,6 +150,8 @@ impl AddAssign<&StreamStats> for StreamStats {
         self.peak_rays = self.peak_rays.max(o.peak_rays);
         self.peak_buffer_rays = self.peak_buffer_rays.max(o.peak_buffer_rays);
         self.overflows += o.overflows;
+        self.path_reads += o.path_reads;
+        self.path_writes += o.path_writes;
     }
 }
 
@@ -159,7 +178,14 @@ pub struct StreamMemory {
     next: Vec<u32>,
     heads: Vec<u32>,
     counts: Vec<u32>,
-    free: u32,
+    /// One free list per bank (slot `s` in bank `s mod banks`): a push can take a slot in
+    /// any bank whose port is free this cycle, not only the one slot a single free list
+    /// offers (which is usually the slot a pop just freed, in the bank that pop used). The
+    /// extra heads are registers in the banks' controllers (assumed; not counted against the
+    /// capacity, like the single head they replace would be 1 pointer).
+    free: Vec<u32>,
+    /// The bank the next [`StreamMemory::push`] tries first (rotating).
+    rr: u32,
     len: u32,
     stats: StreamStats,
 }
@@ -167,14 +193,33 @@ pub struct StreamMemory {
 impl StreamMemory {
     /// An empty stream memory of `cfg.bytes` with `buffers` buffers.
     pub fn new(cfg: &StreamConfig, buffers: u32) -> Result<StreamMemory, StreamError> {
-        let layout = StreamLayout::new(cfg.bytes, buffers).ok_or(StreamError::TooSmall {
-            bytes: cfg.bytes,
-            buffers,
-        })?;
+        StreamMemory::with_path_table(cfg, buffers, 0)
+    }
+
+    /// [`StreamMemory::new`] with a `path_bytes` path-state record beside every slot.
+    pub fn with_path_table(
+        cfg: &StreamConfig,
+        buffers: u32,
+        path_bytes: u32,
+    ) -> Result<StreamMemory, StreamError> {
+        let layout = StreamLayout::with_path_table(cfg.bytes, buffers, path_bytes).ok_or(
+            StreamError::TooSmall {
+                bytes: cfg.bytes,
+                buffers,
+            },
+        )?;
         let n = layout.slots as usize;
-        // Free list: 0 → 1 → … → n−1, so the first pushes fill slots in order.
-        let next = (1..=n as u32)
-            .map(|k| if k as usize == n { NULL } else { k })
+        let banks = cfg.banks;
+        // Free lists: bank k holds k → k + banks → …, so the first pushes (rotating over
+        // the banks) fill slots in order.
+        let next = (0..n as u32)
+            .map(|s| {
+                let t = s as u64 + banks as u64;
+                if t < n as u64 { t as u32 } else { NULL }
+            })
+            .collect();
+        let free = (0..banks)
+            .map(|k| if (k as usize) < n { k } else { NULL })
             .collect();
         Ok(StreamMemory {
             layout,
@@ -183,7 +228,8 @@ impl StreamMemory {
             next,
             heads: vec![NULL; buffers as usize],
             counts: vec![0; buffers as usize],
-            free: 0,
+            free,
+            rr: 0,
             len: 0,
             stats: StreamStats {
                 bank_accesses: vec![0; cfg.banks as usize],
@@ -224,6 +270,32 @@ impl StreamMemory {
         &self.stats
     }
 
+    /// The bank a pop from buffer `b` reads (its head slot's), if it holds a ray.
+    pub fn pop_bank(&self, b: u32) -> Option<u32> {
+        let h = *self.heads.get(b as usize)?;
+        (h != NULL).then_some(h % self.banks)
+    }
+
+    /// Whether bank `bank` has a free slot.
+    pub fn has_free(&self, bank: u32) -> bool {
+        self.free[bank as usize] != NULL
+    }
+
+    /// The bank of path `id`'s state record (record `id` sits beside slot `id`).
+    pub fn path_bank(&self, id: u32) -> u32 {
+        id % self.banks
+    }
+
+    /// Count one access to path `id`'s state record.
+    pub fn path_access(&mut self, id: u32, write: bool) {
+        if write {
+            self.stats.path_writes += 1;
+        } else {
+            self.stats.path_reads += 1;
+        }
+        self.stats.bank_accesses[(id % self.banks) as usize] += 1;
+    }
+
     fn check_buffer(&self, b: u32) -> Result<(), StreamError> {
         if (b as usize) < self.heads.len() {
             Ok(())
@@ -235,10 +307,28 @@ impl StreamMemory {
         }
     }
 
-    /// Push `ray` onto buffer `b`; returns the slot it went to.
+    /// Push `ray` onto buffer `b` into a slot of the first bank with a free slot, rotating
+    /// over the banks from one push to the next; returns the slot it went to.
     pub fn push(&mut self, b: u32, ray: &RayRecord) -> Result<u32, StreamError> {
+        let bank = (0..self.banks)
+            .map(|k| (self.rr + k) % self.banks)
+            .find(|&k| self.has_free(k));
+        let Some(bank) = bank else {
+            self.check_buffer(b)?;
+            self.stats.overflows += 1;
+            return Err(StreamError::Full {
+                slots: self.layout.slots,
+            });
+        };
+        self.rr = (bank + 1) % self.banks;
+        self.push_in(b, ray, bank)
+    }
+
+    /// Push `ray` onto buffer `b` into a free slot of bank `bank` (which must have one:
+    /// [`StreamMemory::has_free`]); returns the slot.
+    pub fn push_in(&mut self, b: u32, ray: &RayRecord, bank: u32) -> Result<u32, StreamError> {
         self.check_buffer(b)?;
-        let slot = self.free;
+        let slot = self.free[bank as usize];
         if slot == NULL {
             self.stats.overflows += 1;
             return Err(StreamError::Full {
@@ -246,7 +336,7 @@ impl StreamMemory {
             });
         }
         let s = slot as usize;
-        self.free = self.next[s];
+        self.free[bank as usize] = self.next[s];
         self.records[s] = *ray;
         self.next[s] = self.heads[b as usize];
         self.heads[b as usize] = slot;
@@ -268,8 +358,9 @@ impl StreamMemory {
         }
         let s = slot as usize;
         self.heads[b as usize] = self.next[s];
-        self.next[s] = self.free;
-        self.free = slot;
+        let f = &mut self.free[(slot % self.banks) as usize];
+        self.next[s] = *f;
+        *f = slot;
         self.counts[b as usize] -= 1;
         self.len -= 1;
         self.stats.pops += 1;
@@ -309,7 +400,17 @@ impl StreamMemory {
             }
             total += k;
         }
-        let free = walk(self.free, "free list")?;
+        let mut free = 0;
+        for (k, &h) in self.free.iter().enumerate() {
+            free += walk(h, &format!("free list of bank {k}"))?;
+            let mut s = h;
+            while s != NULL {
+                if s % self.banks != k as u32 {
+                    return Err(format!("slot {s} on the free list of bank {k}"));
+                }
+                s = self.next[s as usize];
+            }
+        }
         if total != self.len || total + free != n as u32 {
             return Err(format!(
                 "{total} rays in buffers + {free} free != {n} slots (len {})",

@@ -12,8 +12,9 @@
 use crate::config::TraxConfig;
 use crate::isa::{CLASSES, Class, Inst, Mem, NO_REG, UNIT_CLASSES};
 use crate::program::{Program, Run};
+use crate::source::{Source, SourceAccess, TraxSource};
 use crate::stats::{IssueStats, Stall};
-use crate::work::{Ctx, PixelDone, Work};
+use crate::work::PixelDone;
 use rtsim_cache::{Completion, Hierarchy, HierarchyError, Outcome, Request, Topology};
 use rtsim_config::ConfigError;
 use rtsim_core::{Clock, MemOp, Vec3};
@@ -41,6 +42,8 @@ pub(crate) struct Dec {
     pub mem: Mem,
     /// Register-file reads and writes.
     pub rf: (u8, u8),
+    /// `Inst::deps`: more registers waited for (and, for a stream load, filled).
+    pub deps: u32,
 }
 
 fn bit(r: u8) -> u32 {
@@ -54,9 +57,10 @@ impl Dec {
             class: i.class,
             dst: i.dst,
             bank: ((i.pc / crate::isa::INST_BYTES) % banks) as u8,
-            regs: bit(i.src[0]) | bit(i.src[1]) | bit(i.dst),
+            regs: bit(i.src[0]) | bit(i.src[1]) | bit(i.dst) | i.deps,
             mem: i.mem,
             rf: (r as u8, w as u8),
+            deps: i.deps,
         }
     }
 }
@@ -147,7 +151,6 @@ impl Core {
 /// The atomic pixel counter.
 #[derive(Clone, Debug, Default)]
 struct Atomic {
-    next: u32,
     cycle: u64,
     used: u32,
 }
@@ -158,14 +161,16 @@ pub(crate) enum Offered {
     Busy { retry_at: u64 },
 }
 
-/// Everything both engines share.
-pub struct Chip<'a> {
+/// Everything both engines share; `S` is where the TPs' work comes from (the TRaX ray
+/// program by default; STRaTA's treelet streams in `rtsim-strata`).
+pub struct Chip<'a, S: Source = TraxSource<'a>> {
     pub(crate) cfg: TraxConfig,
-    pub(crate) ctx: Ctx<'a>,
+    pub(crate) src: S,
+    pub(crate) pixel_count: u64,
     pub(crate) dec: Vec<Dec>,
-    /// Issue slots per cycle per unit class; latency per class (units, then local memory and
-    /// the atomic counter).
-    pub(crate) cap: [u8; UNIT_CLASSES],
+    /// Per TM: issue slots per cycle per unit class (a TM's units may be reconfigured,
+    /// STRaTA §3.3); latency per class (units, then local memory and the atomic counter).
+    pub(crate) caps: Vec<[u8; UNIT_CLASSES]>,
     pub(crate) lat: [u64; CLASSES],
     pub(crate) fetch_cap: u8,
     /// Calendar row width: the unit classes, then every instruction-cache bank of the TM.
@@ -174,7 +179,6 @@ pub struct Chip<'a> {
     /// Per TP and register: the completion cycle of the miss that wrote it (valid where
     /// `Core::missed` says so; read by the reference engine's keys).
     pub(crate) miss_done: Vec<[u64; 32]>,
-    pub(crate) works: Vec<Work>,
     pub(crate) hier: Hierarchy<Dram>,
     atomic: Atomic,
     pub(crate) completions: Vec<Completion>,
@@ -186,9 +190,10 @@ pub struct Chip<'a> {
     pub(crate) rays_done: u64,
     /// TPs not yet halted.
     pub(crate) live: usize,
+    _life: std::marker::PhantomData<&'a ()>,
 }
 
-impl std::fmt::Debug for Chip<'_> {
+impl<S: Source> std::fmt::Debug for Chip<'_, S> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Chip")
             .field("tms", &self.cfg.tms)
@@ -198,32 +203,32 @@ impl std::fmt::Debug for Chip<'_> {
     }
 }
 
-impl<'a> Chip<'a> {
-    /// Build the chip for a frame: `ctx` says what the TPs render, `width × height` the image
-    /// the pixels index, `dram` the memory behind the L2s, `seed` the caches' replacement
-    /// streams.
+impl<'a, S: Source> Chip<'a, S> {
+    /// Build the chip for a frame: `src` says what the TPs run (`program`, resident in every
+    /// instruction cache), `image_pixels` how many pixels the image has, `dram` the memory
+    /// behind the L2s, `seed` the caches' replacement streams.
     pub fn new(
         cfg: &TraxConfig,
-        ctx: Ctx<'a>,
+        src: S,
+        program: &Program,
         image_pixels: usize,
         dram: &DramConfig,
         seed: u64,
-    ) -> Result<Chip<'a>, ChipError> {
+    ) -> Result<Chip<'a, S>, ChipError> {
         use rtsim_config::Validate;
         cfg.validate()?;
-        if ctx.program.bytes() > cfg.icache_bytes {
+        if program.bytes() > cfg.icache_bytes {
             return Err(ConfigError::key(
                 "arch.trax.icache_bytes",
                 format!(
                     "= {} cannot hold the ray program ({} bytes), which is resident",
                     cfg.icache_bytes,
-                    ctx.program.bytes()
+                    program.bytes()
                 ),
             )
             .into());
         }
-        let dec = ctx
-            .program
+        let dec = program
             .insts
             .iter()
             .map(|i| Dec::new(i, cfg.icache_banks))
@@ -256,7 +261,7 @@ impl<'a> Chip<'a> {
                 tm: tp / cfg.tps_per_tm,
                 icache_col: UNIT_CLASSES as u32
                     + (tp % cfg.tps_per_tm % cfg.icaches_per_tm) * cfg.icache_banks,
-                run: Run::new(ctx.program.next_pixel),
+                run: src.first_run(),
                 ip: 0,
                 base: 0,
                 ready: [0; 32],
@@ -275,13 +280,13 @@ impl<'a> Chip<'a> {
         Ok(Chip {
             cfg: cfg.clone(),
             dec,
-            cap,
+            caps: vec![cap; cfg.tms as usize],
             lat,
             fetch_cap: cfg.fetches_per_bank as u8,
             row_width: UNIT_CLASSES + banks as usize,
             cores,
             miss_done: vec![[0; 32]; n],
-            works: (0..n).map(|_| Work::new()).collect(),
+            pixel_count: src.pixel_count() as u64,
             hier,
             atomic: Atomic::default(),
             completions: Vec::with_capacity(256),
@@ -292,8 +297,20 @@ impl<'a> Chip<'a> {
             pixels_done: 0,
             rays_done: 0,
             live: n,
-            ctx,
+            src,
+            _life: std::marker::PhantomData,
         })
+    }
+
+    /// Set every TM's unit capacities (a source whose TMs start reconfigured, STRaTA §3.3).
+    pub fn set_caps(&mut self, caps: [u8; UNIT_CLASSES]) {
+        self.caps.fill(caps);
+    }
+
+    /// Set the latency of unit class `class` (a unit the source adds, such as STRaTA's box
+    /// pipeline).
+    pub fn set_latency(&mut self, class: Class, cycles: u64) {
+        self.lat[class as usize] = cycles;
     }
 
     pub fn tps(&self) -> usize {
@@ -309,7 +326,9 @@ impl<'a> Chip<'a> {
             return Some((c.run.seg.start + c.ip) as usize);
         }
         let mut done: Option<PixelDone> = None;
-        let next = self.works[tp].next(&self.ctx, &mut self.frame, &mut self.rays_done, &mut done);
+        let next = self
+            .src
+            .next(tp, &mut self.frame, &mut self.rays_done, &mut done);
         if let Some(d) = done {
             self.pixels[d.pixel as usize] = PixelResult {
                 color: d.color,
@@ -423,10 +442,7 @@ impl<'a> Chip<'a> {
                     return Ok(Offered::Busy { retry_at: t + 1 });
                 }
                 a.used += 1;
-                let value = a.next;
-                a.next = a.next.saturating_add(1);
-                self.works[tp].set_counter(value);
-                let next_pixel = self.ctx.pixels.get(value as usize).copied();
+                let next_pixel = self.src.atomic(tp);
                 let core = &mut self.cores[tp];
                 if let Some(p) = core.pixel {
                     self.heat[p as usize] = t - core.pixel_since;
@@ -478,7 +494,37 @@ impl<'a> Chip<'a> {
                     }
                 }
             }
-            _ => unreachable!("only data-cache and atomic instructions are offered"),
+            Class::TriTest | Class::StreamLoad | Class::StreamStore => {
+                let tm = core.tm as usize;
+                match self
+                    .src
+                    .access(tp, tm, d.class, d.mem, t, &mut self.caps[tm])?
+                {
+                    SourceAccess::Busy { retry_at, stall } => {
+                        self.issue.stall[stall as usize] += retry_at - t;
+                        return Ok(Offered::Busy { retry_at });
+                    }
+                    SourceAccess::Done { ready } => {
+                        let core = &mut self.cores[tp];
+                        // A stream load fills the registers it names; the others write
+                        // their destination only.
+                        let mut m = bit(dst);
+                        if d.class == Class::StreamLoad {
+                            m |= d.deps;
+                        }
+                        while m != 0 {
+                            let r = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            core.set_ready(r, ready);
+                            core.from_mem &= !(1 << r);
+                            core.missed &= !(1 << r);
+                        }
+                    }
+                }
+            }
+            _ => unreachable!(
+                "only data-cache, atomic, pipeline and stream instructions are offered"
+            ),
         }
         let core = &mut self.cores[tp];
         core.key = t;
@@ -520,7 +566,7 @@ impl<'a> Chip<'a> {
     }
 }
 
-impl Chip<'_> {
+impl<S: Source> Chip<'_, S> {
     /// After an engine stopped at `last`: close the accounts, drain the memory system and
     /// report.
     pub(crate) fn finish(
@@ -528,7 +574,7 @@ impl Chip<'_> {
         last: u64,
         opts: &crate::Options,
         program: &Program,
-    ) -> Result<crate::Output, ChipError> {
+    ) -> Result<(crate::Output, S), ChipError> {
         use crate::energy::{Energy, Events};
         use crate::report::*;
         let complete = self.live == 0;
@@ -558,6 +604,7 @@ impl Chip<'_> {
         }
         let dram = self.hier.memory_mut().report(end);
         let clock_hz = self.cfg.clock_mhz as f64 * 1e6;
+        let (stream_j, pipeline_j) = self.src.extra_energy(&self.cfg, &self.issue);
         let seconds = cycles as f64 / clock_hz;
         let energy = Energy::of(
             &self.cfg,
@@ -567,6 +614,8 @@ impl Chip<'_> {
                 l2_accesses: l2.accesses(),
                 dram_j: dram.energy.total_j,
                 seconds,
+                stream_j,
+                pipeline_j,
             },
         );
         let total = self.issue.total_instructions();
@@ -590,7 +639,7 @@ impl Chip<'_> {
             seconds,
             ms_per_frame: seconds * 1e3,
             fps: ratio(1.0, seconds),
-            pixels: self.ctx.pixels.len() as u64,
+            pixels: self.pixel_count,
             pixels_done: self.pixels_done,
             instructions: InstructionFacts {
                 total,
@@ -626,11 +675,14 @@ impl Chip<'_> {
             energy,
             issue: self.issue.clone(),
         };
-        Ok(crate::Output {
-            pixels: self.pixels,
-            heat: self.heat,
-            rays: self.frame,
-            report,
-        })
+        Ok((
+            crate::Output {
+                pixels: self.pixels,
+                heat: self.heat,
+                rays: self.frame,
+                report,
+            },
+            self.src,
+        ))
     }
 }

@@ -104,7 +104,7 @@ impl Default for Units {
 
 impl Units {
     /// The classes in [`crate::isa::Class`] order (the first [`crate::isa::UNIT_CLASSES`]).
-    pub fn by_class(&self) -> [(&'static str, &UnitConfig); crate::isa::UNIT_CLASSES] {
+    pub fn by_class(&self) -> [(&'static str, &UnitConfig); crate::isa::CONFIGURED_UNITS] {
         [
             ("fp_add", &self.fp_add),
             ("fp_mul", &self.fp_mul),

@@ -46,6 +46,8 @@ pub fn interpolate(table: &[(u64, f64)], bytes: u64) -> f64 {
 pub struct Energy {
     pub dram_j: f64,
     pub l2_j: f64,
+    /// The ray stream memory (STRaTA; 0 on the TRaX baseline).
+    pub stream_j: f64,
     pub l1_j: f64,
     pub icache_j: f64,
     pub register_file_j: f64,
@@ -95,6 +97,11 @@ pub struct Events {
     pub l2_accesses: u64,
     pub dram_j: f64,
     pub seconds: f64,
+    /// Stream-memory energy (STRaTA), J.
+    pub stream_j: f64,
+    /// Energy of the operations performed inside fused pipelines (STRaTA §3.3: the shared
+    /// units do the work; charged per operation like any other), J.
+    pub pipeline_j: f64,
 }
 
 impl Energy {
@@ -111,11 +118,16 @@ impl Energy {
         let atomic = issue.count(Class::Atomic) as f64 * cfg.energy.atomic_nj * NJ;
         units_by_class.insert("atomic", atomic);
         units += atomic;
+        if ev.pipeline_j > 0.0 {
+            units_by_class.insert("fused_pipelines", ev.pipeline_j);
+            units += ev.pipeline_j;
+        }
         let fetches = issue.total_instructions();
         let local = issue.count(Class::LocalLoad) + issue.count(Class::LocalStore);
         let mut e = Energy {
             dram_j: ev.dram_j,
             l2_j: ev.l2_accesses as f64 * pe.l2_access * NJ,
+            stream_j: ev.stream_j,
             l1_j: ev.l1_accesses as f64 * pe.l1_access * NJ,
             icache_j: fetches as f64 * pe.icache_fetch * NJ,
             register_file_j: (issue.register_reads + issue.register_writes) as f64
@@ -130,6 +142,7 @@ impl Energy {
         };
         e.total_j = e.dram_j
             + e.l2_j
+            + e.stream_j
             + e.l1_j
             + e.icache_j
             + e.register_file_j
@@ -144,10 +157,11 @@ impl Energy {
     }
 
     /// (component, joules) in report order.
-    pub fn components(&self) -> [(&'static str, f64); 7] {
+    pub fn components(&self) -> [(&'static str, f64); 8] {
         [
             ("DRAM", self.dram_j),
             ("L2", self.l2_j),
+            ("stream memory", self.stream_j),
             ("L1", self.l1_j),
             ("instruction cache", self.icache_j),
             ("register file", self.register_file_j),
@@ -190,6 +204,7 @@ mod tests {
                 l2_accesses: 10,
                 dram_j: 1e-6,
                 seconds: 1e-3,
+                ..Events::default()
             },
         );
         let sum: f64 = e.components().iter().map(|c| c.1).sum();

@@ -15,6 +15,7 @@
 
 use crate::chip::{Chip, ChipError, Offered, Wait};
 use crate::isa::UNIT_CLASSES;
+use crate::source::Source;
 use crate::stats::Stall;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -242,11 +243,12 @@ impl Wheel {
 }
 
 /// Progress callback: called now and then with the chip and the current cycle.
-pub(crate) type Progress<'p> = &'p mut dyn FnMut(&Chip<'_>, u64);
+/// Called with the cycle, the pixels finished and the rays traced.
+pub(crate) type Progress<'p> = &'p mut dyn FnMut(u64, u64, u64);
 
 /// Run the frame (to its end, or to `limit` cycles); returns the last cycle processed.
-pub fn run(
-    chip: &mut Chip<'_>,
+pub fn run<S: Source>(
+    chip: &mut Chip<'_, S>,
     limit: Option<u64>,
     progress: Progress<'_>,
 ) -> Result<u64, ChipError> {
@@ -325,7 +327,7 @@ pub fn run(
         last = t;
         ticks += 1;
         if ticks & 0x3FFF == 0 {
-            progress(chip, t);
+            progress(t, chip.pixels_done, chip.rays_done);
         }
         if chip.live == 0 && t_tp.is_none() && wheel.next().is_none() {
             // Every TP has halted; what remains in the memory system is drained by the caller.
@@ -343,23 +345,17 @@ const AHEAD: usize = 4;
 /// a cycle's TPs are known in advance, and each one's state is usually out of the cache by the
 /// time its turn comes (4,096 TPs' state is larger than the host's L2).
 #[inline(always)]
-fn prefetch_tp(chip: &Chip<'_>, tp: usize) {
+fn prefetch_tp<S: Source>(chip: &Chip<'_, S>, tp: usize) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
         let core = chip.cores.as_ptr().wrapping_add(tp) as *const i8;
-        let work = chip.works.as_ptr().wrapping_add(tp) as *const i8;
         for l in 0..std::mem::size_of::<crate::chip::Core>().div_ceil(64) {
             // SAFETY: prefetching is a hint and never faults, even for a bad address.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(core.wrapping_add(64 * l)) };
         }
-        for l in 0..2 {
-            // SAFETY: as above.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(work.wrapping_add(64 * l)) };
-        }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (chip, tp);
+    chip.src.prefetch(tp);
 }
 
 /// Sort nearly sorted, mostly tiny runs.
@@ -376,7 +372,12 @@ fn insertion_sort<T: Ord + Copy>(v: &mut [T]) {
 }
 
 /// Offer TP `tp`'s pending access at cycle `t`; refused, it waits for the retry cycle.
-fn offer(chip: &mut Chip<'_>, wheel: &mut Wheel, tp: usize, t: u64) -> Result<(), ChipError> {
+fn offer<S: Source>(
+    chip: &mut Chip<'_, S>,
+    wheel: &mut Wheel,
+    tp: usize,
+    t: u64,
+) -> Result<(), ChipError> {
     debug_assert_eq!(chip.cores[tp].access_at, t);
     let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
     if let Offered::Busy { retry_at } = chip.access(tp, i, t)? {
@@ -388,8 +389,8 @@ fn offer(chip: &mut Chip<'_>, wheel: &mut Wheel, tp: usize, t: u64) -> Result<()
 
 /// TP `tp` resumes at `t` (its access was accepted, or a miss it waited for returned, or the
 /// frame starts): it books ahead with key `t`.
-fn resume(
-    chip: &mut Chip<'_>,
+fn resume<S: Source>(
+    chip: &mut Chip<'_, S>,
     cal: &mut Calendar,
     wheel: &mut Wheel,
     tp: usize,
@@ -410,8 +411,8 @@ fn resume(
 /// Book TP `tp`'s instructions from its current one, with priority key `t`, up to its next
 /// access (scheduled as an event, or offered at once if it falls in cycle `t`) or an operand
 /// whose miss has not returned.
-fn run_ahead(
-    chip: &mut Chip<'_>,
+fn run_ahead<S: Source>(
+    chip: &mut Chip<'_, S>,
     cal: &mut Calendar,
     wheel: &mut Wheel,
     tp: usize,
@@ -437,7 +438,7 @@ fn run_ahead(
         // The first cycle from `e` whose unit (if any) and fetch bank have room.
         let unit = d.class.is_unit();
         let cls = d.class as usize;
-        let cap = if unit { chip.cap[cls] } else { 0 };
+        let cap = if unit { chip.caps[tm][cls] } else { 0 };
         let fetch_cap = chip.fetch_cap;
         let bank = d.bank as usize;
         let mut c = e;

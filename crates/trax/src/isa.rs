@@ -25,22 +25,38 @@ pub enum Class {
     Conv = 7,
     Branch = 8,
     Bitwise = 9,
+    /// One ray–box test through the TM's fused box pipeline (STRaTA §3.3; the TRaX baseline
+    /// has none: its capacity is 0 there).
+    BoxTest = 10,
     /// A word load through the TM's L1 data cache.
-    Load = 10,
+    Load = 11,
     /// A word store through the L1 (write-around: posted to the L2).
-    Store = 11,
+    Store = 12,
     /// A word read from the TP's local memory (the traversal stack).
-    LocalLoad = 12,
+    LocalLoad = 13,
     /// A word written to local memory.
-    LocalStore = 13,
+    LocalStore = 14,
     /// The chip-wide atomic increment (`atominc`) that hands out pixels.
-    Atomic = 14,
+    Atomic = 15,
+    /// One ray–triangle test through one of the TM's fused triangle pipelines (STRaTA §3.3).
+    /// Its initiation interval is longer than a cycle, so an instance is a resource taken at
+    /// the access point like the atomic counter (see `docs/STRATA.md`).
+    TriTest = 16,
+    /// A read of the ray stream memory: a ray popped from a treelet buffer, or a path-state
+    /// record (STRaTA §3.1).
+    StreamLoad = 17,
+    /// A write to the ray stream memory: a ray pushed onto a treelet buffer, or a path-state
+    /// record.
+    StreamStore = 18,
 }
 
+/// The unit classes configured in `arch.trax.units` (all but the fused box pipeline, whose
+/// capacity STRaTA sets).
+pub const CONFIGURED_UNITS: usize = 10;
 /// Shared execution-unit classes (the calendar's columns).
-pub const UNIT_CLASSES: usize = 10;
+pub const UNIT_CLASSES: usize = 11;
 /// All classes.
-pub const CLASSES: usize = 15;
+pub const CLASSES: usize = 19;
 
 impl Class {
     pub const ALL: [Class; CLASSES] = [
@@ -54,11 +70,15 @@ impl Class {
         Class::Conv,
         Class::Branch,
         Class::Bitwise,
+        Class::BoxTest,
         Class::Load,
         Class::Store,
         Class::LocalLoad,
         Class::LocalStore,
         Class::Atomic,
+        Class::TriTest,
+        Class::StreamLoad,
+        Class::StreamStore,
     ];
 
     /// Whether the class uses one of the TM's shared units.
@@ -68,10 +88,11 @@ impl Class {
     }
 
     /// Whether the instruction talks to shared state outside the TM's issue logic (the data
-    /// cache or the atomic counter): the points at which a TP synchronises with the chip.
+    /// cache, the atomic counter, a triangle pipeline instance or the stream memory): the
+    /// points at which a TP synchronises with the chip.
     #[inline(always)]
     pub fn is_sync(self) -> bool {
-        matches!(self, Class::Load | Class::Store | Class::Atomic)
+        (self as u8) > Class::BoxTest as u8 && !matches!(self, Class::LocalLoad | Class::LocalStore)
     }
 
     /// Mnemonic used in listings.
@@ -87,11 +108,15 @@ impl Class {
             Class::Conv => "conv",
             Class::Branch => "br",
             Class::Bitwise => "bit",
+            Class::BoxTest => "boxtest",
             Class::Load => "load",
             Class::Store => "store",
             Class::LocalLoad => "lload",
             Class::LocalStore => "lstore",
             Class::Atomic => "atominc",
+            Class::TriTest => "tritest",
+            Class::StreamLoad => "sload",
+            Class::StreamStore => "sstore",
         }
     }
 
@@ -108,11 +133,15 @@ impl Class {
             Class::Conv => "conv",
             Class::Branch => "branch",
             Class::Bitwise => "bitwise",
+            Class::BoxTest => "box_test",
             Class::Load => "load",
             Class::Store => "store",
             Class::LocalLoad => "local_load",
             Class::LocalStore => "local_store",
             Class::Atomic => "atomic",
+            Class::TriTest => "triangle_test",
+            Class::StreamLoad => "stream_load",
+            Class::StreamStore => "stream_store",
         }
     }
 }
@@ -132,6 +161,21 @@ pub enum Mem {
     Word { base: u8, word: u8 },
     /// Word `word` of the stack entry at the block's local-memory slot.
     Local { word: u8 },
+    /// A stream-memory access (STRaTA §3.1).
+    Stream(StreamOp),
+}
+
+/// What a stream-memory instruction does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum StreamOp {
+    /// Pop a ray from the TM's treelet buffer into the ray registers.
+    Pop,
+    /// Push the ray in the registers onto the buffer of the treelet it enters.
+    Push,
+    /// Read the path's state record into registers.
+    PathRead,
+    /// Write the path's state record from registers.
+    PathWrite,
 }
 
 /// One static instruction.
@@ -145,12 +189,37 @@ pub struct Inst {
     pub mem: Mem,
     /// Byte address in instruction memory (4-byte instructions).
     pub pc: u32,
+    /// More registers the instruction waits for (a bit per register) besides `src` and `dst`:
+    /// the wide instructions of STRaTA (a fused test reads a ray's registers and its input
+    /// latches; a stream access moves a whole record). 0 for ordinary instructions.
+    pub deps: u32,
+    /// Register-file reads and writes, where they differ from the operands' count (wide
+    /// instructions; an input intrinsic that writes a pipeline latch, not the register
+    /// file). `None`: one read per register source, one write per register destination.
+    pub rf: Option<(u8, u8)>,
 }
 
 impl Inst {
-    /// Register-file reads (register sources) and writes (a register destination).
+    /// An ordinary instruction: `class`, destination, two sources, no memory operand.
+    pub fn new(class: Class, dst: Reg, src: [Reg; 2]) -> Inst {
+        Inst {
+            class,
+            dst,
+            src,
+            mem: Mem::None,
+            pc: 0,
+            deps: 0,
+            rf: None,
+        }
+    }
+
+    /// Register-file reads and writes: `rf` if set, else one read per register source and one
+    /// write for a register destination.
     #[inline]
     pub fn register_accesses(&self) -> (u32, u32) {
+        if let Some((r, w)) = self.rf {
+            return (r as u32, w as u32);
+        }
         let reads = self.src.iter().filter(|&&r| r != NO_REG).count() as u32;
         (reads, (self.dst != NO_REG) as u32)
     }

@@ -38,6 +38,7 @@ pub mod isa;
 pub mod program;
 pub mod reference;
 pub mod report;
+pub mod source;
 pub mod stats;
 pub mod work;
 
@@ -48,6 +49,7 @@ pub use chip::{Chip, ChipError};
 pub use config::{TraxConfig, UnitConfig};
 pub use program::{Program, Run, Seg};
 pub use report::TraxReport;
+pub use source::{Source, SourceAccess, TraxSource};
 
 use rtsim_bvh::MemoryImage;
 use rtsim_dram::DramConfig;
@@ -131,10 +133,22 @@ pub fn simulate(
         program: &program,
         pixels: frame.pixels,
     };
-    let mut chip = Chip::new(cfg, ctx, frame.image_pixels, dram, opts.seed)?;
-    let total = frame.pixels.len() as u64;
-    let mut tick = |c: &Chip<'_>, cycle: u64| {
-        let (pixels_done, rays) = c.progress();
+    let src = TraxSource::new(ctx, cfg.total_tps() as usize);
+    let chip = Chip::new(cfg, src, &program, frame.image_pixels, dram, opts.seed)?;
+    let (out, _) = run_chip(chip, &program, opts, progress)?;
+    Ok(out)
+}
+
+/// Run a built chip to the end of its frame (or `opts.cycle_limit`) with the engine `opts`
+/// names; returns the output and the source, for what it counted.
+pub fn run_chip<S: Source>(
+    mut chip: Chip<'_, S>,
+    program: &Program,
+    opts: &Options,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Output, S), ChipError> {
+    let total = chip.pixel_count;
+    let mut tick = |cycle: u64, pixels_done: u64, rays: u64| {
         progress(Progress {
             cycle,
             pixels_done,
@@ -146,12 +160,12 @@ pub fn simulate(
         Engine::Fast => fast::run(&mut chip, opts.cycle_limit, &mut tick)?,
         Engine::Reference => reference::run(&mut chip, opts.cycle_limit, &mut tick)?,
     };
-    let out = chip.finish(last, opts, &program)?;
+    let (out, src) = chip.finish(last, opts, program)?;
     progress(Progress {
         cycle: out.report.cycles,
         pixels_done: out.report.pixels_done,
         pixels: total,
         rays: out.rays.total().rays,
     });
-    Ok(out)
+    Ok((out, src))
 }

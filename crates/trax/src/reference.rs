@@ -10,12 +10,13 @@
 
 use crate::chip::{Chip, ChipError, Offered, Wait};
 use crate::fast::Progress;
+use crate::source::Source;
 use crate::stats::Stall;
 
 /// Run the frame cycle by cycle (to its end, or to `limit` cycles); returns the last cycle
 /// simulated.
-pub fn run(
-    chip: &mut Chip<'_>,
+pub fn run<S: Source>(
+    chip: &mut Chip<'_, S>,
     limit: Option<u64>,
     progress: Progress<'_>,
 ) -> Result<u64, ChipError> {
@@ -93,7 +94,7 @@ pub fn run(
             let row = &mut used[core.tm as usize * width..(core.tm as usize + 1) * width];
             let cls = d.class as usize;
             let bank = core.icache_col as usize + d.bank as usize;
-            if d.class.is_unit() && row[cls] >= chip.cap[cls] {
+            if d.class.is_unit() && row[cls] >= chip.caps[core.tm as usize][cls] {
                 chip.issue.stall[Stall::Unit as usize] += 1;
                 chip.issue.unit_busy[cls] += 1;
                 continue;
@@ -131,7 +132,7 @@ pub fn run(
             }
         }
         if t & 0xFFF == 0 {
-            progress(chip, t);
+            progress(t, chip.pixels_done, chip.rays_done);
         }
         t += 1;
     }

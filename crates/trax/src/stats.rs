@@ -23,9 +23,12 @@ pub enum Stall {
     Fetch = 3,
     /// The atomic pixel counter was taken this cycle.
     Atomic = 4,
+    /// STRaTA: waiting for the stream memory (its bank busy, or no ray to pop) or for a
+    /// triangle pipeline instance.
+    Stream = 5,
 }
 
-pub const STALLS: usize = 5;
+pub const STALLS: usize = 6;
 
 impl Stall {
     pub const ALL: [Stall; STALLS] = [
@@ -34,6 +37,7 @@ impl Stall {
         Stall::Unit,
         Stall::Fetch,
         Stall::Atomic,
+        Stall::Stream,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -42,6 +46,7 @@ impl Stall {
             Stall::Unit => "unit_busy",
             Stall::Fetch => "fetch_conflict",
             Stall::Atomic => "atomic_busy",
+            Stall::Stream => "stream_or_pipeline_wait",
         }
     }
 }

@@ -13,13 +13,7 @@ use rtsim_trace::{Integrator, TraceConfig, Tracer, WorkloadKind, WorkloadParams}
 const T0: u8 = regs::FIRST_TEMP;
 
 fn inst(class: Class, dst: u8, a: u8, b: u8) -> Inst {
-    Inst {
-        class,
-        dst,
-        src: [a, b],
-        mem: Mem::None,
-        pc: 0,
-    }
+    Inst::new(class, dst, [a, b])
 }
 
 /// Run `scripts[tp]` (a block each, or nothing) on a chip of one TM with `cfg`'s units;
@@ -79,11 +73,12 @@ fn run(cfg: &TraxConfig, block: &[Inst], scripts: &[bool], engine: Engine) -> Ou
         program: &program,
         pixels: &[],
     };
-    let mut chip = Chip::new(cfg, ctx, 16, &Default::default(), 1).unwrap();
+    let src = crate::TraxSource::new(ctx, cfg.total_tps() as usize);
+    let mut chip = Chip::new(cfg, src, &program, 16, &Default::default(), 1).unwrap();
     for (tp, &scripted) in scripts.iter().enumerate() {
         chip.cores[tp].run = Run::new(Seg { start: 0, len: 0 });
         let runs: &[Run] = if scripted { &[Run::new(seg)] } else { &[] };
-        chip.works[tp] = Work::scripted(runs);
+        chip.src.works[tp] = Work::scripted(runs);
     }
     let opts = Options {
         engine,
@@ -91,10 +86,10 @@ fn run(cfg: &TraxConfig, block: &[Inst], scripts: &[bool], engine: Engine) -> Ou
         seed: 1,
     };
     let last = match engine {
-        Engine::Fast => crate::fast::run(&mut chip, None, &mut |_, _| {}).unwrap(),
-        Engine::Reference => crate::reference::run(&mut chip, None, &mut |_, _| {}).unwrap(),
+        Engine::Fast => crate::fast::run(&mut chip, None, &mut |_, _, _| {}).unwrap(),
+        Engine::Reference => crate::reference::run(&mut chip, None, &mut |_, _, _| {}).unwrap(),
     };
-    chip.finish(last, &opts, &program).unwrap()
+    chip.finish(last, &opts, &program).unwrap().0
 }
 
 fn chip(tps: u32) -> TraxConfig {

@@ -9,6 +9,7 @@
 
 mod functional;
 pub mod sgrt;
+pub(crate) mod strata;
 pub(crate) mod trax;
 
 use crate::cli::SceneArgs;
@@ -226,10 +227,11 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let out = match preset.as_str() {
         "functional" => functional::run(&session)?,
         "trax-baseline" => trax::run(&session)?,
+        "strata" => strata::run(&session)?,
         "sgrt" | "sgrt-sptrv" | "sgrt-1" => sgrt::run(&session)?,
         other => anyhow::bail!(
             "arch.preset = {other} has no simulator in this build (known: functional, \
-             trax-baseline, sgrt, sgrt-sptrv, sgrt-1)"
+             trax-baseline, strata, sgrt, sgrt-sptrv, sgrt-1)"
         ),
     };
     let png = outputs.png().to_path_buf();

@@ -17,7 +17,7 @@ struct TraxStats {
 }
 
 /// Compact counts for the progress message.
-fn si(n: u64) -> String {
+pub(crate) fn si(n: u64) -> String {
     match n {
         0..1_000 => n.to_string(),
         1_000..1_000_000 => format!("{:.1}K", n as f64 / 1e3),

@@ -176,6 +176,11 @@ impl State {
             inv_dir: self.inv_dir,
         }
     }
+    /// The ray's direction (what a loaded record's inverse direction is recomputed from).
+    pub fn direction(&self) -> Vec3 {
+        self.dir
+    }
+
     pub fn is_done(&self) -> bool {
         self.phase() == Phase::Done
     }

@@ -466,13 +466,7 @@ impl Tape {
             if op.writes {
                 reg_of[id] = dst;
             }
-            let inst = |class, dst, src| Inst {
-                class,
-                dst,
-                src,
-                mem: Mem::None,
-                pc: 0,
-            };
+            let inst = Inst::new;
             match op.expand {
                 Expand::One(class) => insts.push(Inst {
                     mem: op.mem,

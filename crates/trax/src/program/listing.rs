@@ -1,7 +1,7 @@
 //! The Markdown listing of the program (`docs/TRAX_PROGRAM.md`).
 
 use super::{Program, Seg};
-use crate::isa::{CLASSES, Class, Inst, Mem, NO_REG, Reg, regs};
+use crate::isa::{Class, Inst, Mem, NO_REG, Reg, regs};
 use std::fmt::Write;
 
 fn reg_name(r: Reg) -> String {
@@ -48,6 +48,7 @@ fn line(i: &Inst) -> String {
         Mem::None => String::new(),
         Mem::Word { base, word } => format!("[rec{base} + {}]", 4 * word as u32),
         Mem::Local { word } => format!("[stack + {}]", 4 * word as u32),
+        Mem::Stream(op) => format!("[stream {op:?}]"),
     };
     format!(
         "{:5} {:<10} {:<7} {:<7} {:<7} {mem}",
@@ -61,11 +62,19 @@ fn line(i: &Inst) -> String {
     .to_string()
 }
 
+/// The classes the program uses (the table leaves out the others).
+fn used(p: &Program) -> Vec<Class> {
+    Class::ALL
+        .into_iter()
+        .filter(|&c| p.insts.iter().any(|i| i.class == c))
+        .collect()
+}
+
 fn counts_row(p: &Program, s: Seg) -> String {
     let c = p.class_counts(s);
     let mut row = String::new();
-    for n in c {
-        let _ = write!(row, " {n} |");
+    for k in used(p) {
+        let _ = write!(row, " {} |", c[k as usize]);
     }
     let _ = write!(row, " {} |", s.len);
     row
@@ -134,11 +143,12 @@ pub(super) fn markdown(p: &Program) -> String {
          trace (it is assumed to stay in registers and the local memory above the stack).\n\n",
     );
     s.push_str("## Instructions per block, by class\n\n| block |");
-    for c in Class::ALL {
+    let classes = used(p);
+    for c in &classes {
         let _ = write!(s, " {} |", c.mnemonic());
     }
     s.push_str(" total |\n|---|");
-    for _ in 0..=CLASSES {
+    for _ in 0..=classes.len() {
         s.push_str("---:|");
     }
     s.push('\n');

@@ -1,0 +1,160 @@
+//! The timed STRaTA chip against the functional tracer and against itself: every pixel and
+//! every ray's counters equal the functional `bit-stack` tracer's, the fast engine equals the
+//! cycle-by-cycle reference, nothing is lost with a tiny stream memory, and runs repeat
+//! bit for bit.
+
+use rtsim_strata::config::{StrataConfig, StreamConfig};
+use rtsim_strata::timed::{self, StrataOutput};
+use rtsim_strata::world::{self, World};
+use rtsim_trace::{FrameStats, Integrator, PixelResult, WorkloadKind, WorkloadParams};
+use rtsim_trax::{Engine, Frame, Options, TraxConfig};
+
+fn world(w: u32, h: u32) -> World {
+    World::load(
+        "cornell",
+        None,
+        w,
+        h,
+        &world::memory_config(16 << 10),
+        &world::trace_config(),
+    )
+    .unwrap()
+}
+
+fn params(w: &World) -> WorkloadParams {
+    WorkloadParams {
+        kind: WorkloadKind::Path,
+        width: w.width,
+        height: w.height,
+        spp: 1,
+        max_depth: 3,
+        specular_bounces: 2,
+        ao_radius: 0.3,
+        seed: 7,
+    }
+}
+
+fn functional(w: &World, p: &WorkloadParams) -> (Vec<PixelResult>, FrameStats) {
+    let integ = Integrator::new(&w.scene, &w.tracer, p.clone());
+    let mut stats = FrameStats::default();
+    let out = (0..w.width * w.height)
+        .map(|px| integ.pixel(px % w.width, px / w.width, &mut stats))
+        .collect();
+    (out, stats)
+}
+
+fn chip(tms: u32, tps: u32) -> TraxConfig {
+    TraxConfig {
+        tms,
+        tps_per_tm: tps,
+        ..TraxConfig::default()
+    }
+}
+
+fn run(w: &World, cfg: &StrataConfig, trax: &TraxConfig, engine: Engine) -> StrataOutput {
+    let p = params(w);
+    let integ = Integrator::new(&w.scene, &w.tracer, p);
+    let pixels: Vec<u32> = (0..w.width * w.height).collect();
+    timed::simulate(
+        trax,
+        cfg,
+        &rtsim_dram::DramConfig::default(),
+        Frame {
+            integ: &integ,
+            tracer: &w.tracer,
+            image: &w.image,
+            pixels: &pixels,
+            image_pixels: pixels.len(),
+        },
+        &Options {
+            engine,
+            cycle_limit: None,
+            seed: 1,
+        },
+        &mut |_| {},
+    )
+    .unwrap()
+}
+
+fn assert_same(o: &StrataOutput, reference: &(Vec<PixelResult>, FrameStats)) {
+    for (i, (a, b)) in o.out.pixels.iter().zip(&reference.0).enumerate() {
+        assert_eq!(
+            a.color.to_array().map(f32::to_bits),
+            b.color.to_array().map(f32::to_bits),
+            "pixel {i}"
+        );
+        assert_eq!(a.nodes_visited, b.nodes_visited, "pixel {i}");
+    }
+    assert_eq!(o.out.rays, reference.1, "per-kind ray counters");
+    assert!(o.out.report.complete);
+    let s = &o.strata;
+    // Every ray pushed was popped; one root push per ray; the memory never overflowed.
+    assert_eq!(s.stream.pushes, s.stream.pops);
+    assert_eq!(s.pushes_root, o.out.rays.total().rays);
+    assert_eq!(s.stream.overflows, 0);
+    assert_eq!(s.stream.path_reads, o.out.rays.total().rays);
+    assert_eq!(s.pushes_crossing, o.out.rays.total().treelet_crossings);
+}
+
+#[test]
+fn the_timed_chip_renders_the_functional_image_fused_and_unfused() {
+    let w = world(16, 16);
+    let reference = functional(&w, &params(&w));
+    for fused in [true, false] {
+        let cfg = StrataConfig {
+            fused,
+            ..StrataConfig::default()
+        };
+        let o = run(&w, &cfg, &chip(2, 8), Engine::Fast);
+        assert_same(&o, &reference);
+        let r = &o.out.report;
+        let boxes = r.issue.count(rtsim_trax::isa::Class::BoxTest);
+        assert_eq!(boxes > 0, fused, "fused box tests only with fusing");
+        if fused {
+            assert!(o.strata.reconfigurations > 0);
+            assert!(o.strata.pipeline_energy_j > 0.0);
+        }
+        assert!(r.energy.stream_j > 0.0);
+    }
+}
+
+#[test]
+fn fast_equals_reference() {
+    let w = world(8, 8);
+    for fused in [true, false] {
+        let cfg = StrataConfig {
+            fused,
+            ..StrataConfig::default()
+        };
+        let f = run(&w, &cfg, &chip(2, 4), Engine::Fast);
+        let r = run(&w, &cfg, &chip(2, 4), Engine::Reference);
+        assert_eq!(f.out.report.cycles, r.out.report.cycles, "fused {fused}");
+        assert_eq!(f.out.report.issue, r.out.report.issue, "fused {fused}");
+        assert_eq!(f.strata, r.strata, "fused {fused}");
+        assert_eq!(f.out.report.dram.accesses, r.out.report.dram.accesses);
+    }
+}
+
+#[test]
+fn a_tiny_stream_memory_loses_nothing_and_runs_repeat_exactly() {
+    let w = world(12, 12);
+    let reference = functional(&w, &params(&w));
+    let cfg = StrataConfig {
+        stream: StreamConfig {
+            bytes: 2 << 10,
+            ..StreamConfig::default()
+        },
+        ..StrataConfig::default()
+    };
+    let a = run(&w, &cfg, &chip(2, 8), Engine::Fast);
+    assert_same(&a, &reference);
+    assert!(
+        a.strata.paths < 144,
+        "the stream memory limits the paths in flight"
+    );
+    assert!(a.strata.stream.peak_rays <= a.strata.layout.unwrap().slots);
+    let b = run(&w, &cfg, &chip(2, 8), Engine::Fast);
+    assert_eq!(a.out.report.cycles, b.out.report.cycles);
+    assert_eq!(a.out.report.issue, b.out.report.issue);
+    assert_eq!(a.strata, b.strata);
+}

@@ -1,0 +1,141 @@
+//! `rtsim simulate --arch strata`, `rtsim compare --arch trax-baseline --arch strata` and
+//! `rtsim bench-sim --arch strata` end to end: outputs, the image equal to the functional
+//! render with the same settings, the tables, determinism, and configuration errors.
+
+mod common;
+use common::{fails, ok, rtsim};
+use std::fs;
+use std::path::Path;
+
+const SMALL: [&str; 8] = [
+    "--width",
+    "16",
+    "--height",
+    "16",
+    "--set",
+    "arch.trax.tms=2",
+    "--set",
+    "arch.trax.tps_per_tm=8",
+];
+
+fn simulate(out: &Path, extra: &[&str]) -> String {
+    ok(rtsim()
+        .args(["simulate", "--arch", "strata"])
+        .args(SMALL)
+        .arg("--out")
+        .arg(out)
+        .args(extra))
+}
+
+#[test]
+fn simulate_renders_the_functional_image_and_repeats_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, render) = (
+        dir.path().join("a"),
+        dir.path().join("b"),
+        dir.path().join("render"),
+    );
+    let stdout = simulate(&a, &[]);
+    for want in ["stream memory", "treelet", "row-buffer hit rate", "energy"] {
+        assert!(stdout.contains(want), "summary lacks {want}: {stdout}");
+    }
+    let stats: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(a.join("stats.json")).unwrap()).unwrap();
+    assert!(stats["strata"]["stream"]["pushes"].as_u64().unwrap() > 0);
+    assert!(stats["trax"]["energy"]["stream_j"].as_f64().unwrap() > 0.0);
+    // The functional tracer with the preset's settings renders the same image.
+    ok(rtsim()
+        .args(["render", "--width", "16", "--height", "16"])
+        .args(["--set", "arch.preset=strata", "--out"])
+        .arg(&render));
+    assert_eq!(
+        fs::read(a.join("render.png")).unwrap(),
+        fs::read(render.join("render.png")).unwrap()
+    );
+    simulate(&b, &[]);
+    assert_eq!(
+        fs::read(a.join("stats.json")).unwrap(),
+        fs::read(b.join("stats.json")).unwrap(),
+        "same config and seed: the same stats"
+    );
+}
+
+#[test]
+fn compare_writes_tables_1_and_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cmp");
+    let stdout = ok(rtsim()
+        .args(["compare", "--arch", "trax-baseline", "--arch", "strata"])
+        .args(SMALL)
+        .arg("--out")
+        .arg(&out));
+    assert!(
+        stdout.contains("Table 1") && stdout.contains("Table 3"),
+        "{stdout}"
+    );
+    let t3 = fs::read_to_string(out.join("table3.csv")).unwrap();
+    let strata: Vec<&str> = t3
+        .lines()
+        .find(|l| l.starts_with("strata"))
+        .unwrap()
+        .split(',')
+        .collect();
+    let pct: f64 = strata[3].parse().unwrap();
+    assert!(
+        pct < 100.0,
+        "fused pipelines cut RF + icache energy: {pct}%"
+    );
+    assert!(out.join("table1.csv").is_file() && out.join("compare.json").is_file());
+}
+
+#[test]
+fn bench_sim_runs_strata_and_bad_settings_name_their_key() {
+    let stdout = ok(rtsim()
+        .args([
+            "bench-sim",
+            "--arch",
+            "strata",
+            "--scene",
+            "cornell",
+            "--cycle-limit",
+            "5000",
+        ])
+        .args(SMALL));
+    assert!(
+        stdout.contains("stream memory") && stdout.contains("instructions/s"),
+        "{stdout}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let e = fails(
+        rtsim()
+            .args([
+                "simulate",
+                "--arch",
+                "strata",
+                "--set",
+                "arch.strata.triangle_pipelines=3",
+            ])
+            .arg("--out")
+            .arg(dir.path()),
+    );
+    assert!(
+        e.contains("arch.strata.triangle_pipelines") && e.contains("1..=2"),
+        "{e}"
+    );
+    let e = fails(
+        rtsim()
+            .args([
+                "simulate",
+                "--arch",
+                "strata",
+                "--set",
+                "trace.traversal=stack",
+            ])
+            .arg("--out")
+            .arg(dir.path()),
+    );
+    assert!(
+        e.contains("trace.traversal") && e.contains("bit-stack"),
+        "{e}"
+    );
+}
