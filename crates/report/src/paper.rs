@@ -26,111 +26,11 @@ pub fn our_scene(paper: &str) -> Option<&'static str> {
     })
 }
 
-/// One architecture's half of a STRaTA Table 1 row.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DramCols {
-    /// DRAM accesses, millions.
-    pub accesses_m: f64,
-    /// Row buffer hit rate, %.
-    pub row_hit_pct: f64,
-    /// Average read latency, GPU (1 GHz core) cycles.
-    pub read_latency_cycles: f64,
-    pub ms_per_frame: f64,
-    /// Total DRAM energy per frame, J.
-    pub dram_energy_j: f64,
-}
-
-const fn d(accesses_m: f64, row_hit_pct: f64, lat: f64, ms: f64, j: f64) -> DramCols {
-    DramCols {
-        accesses_m,
-        row_hit_pct,
-        read_latency_cycles: lat,
-        ms_per_frame: ms,
-        dram_energy_j: j,
-    }
-}
-
-/// STRaTA Table 1: (scene, baseline, STRaTA). The STRaTA energy's printed percentage of the
-/// baseline is recomputed from these when shown.
-pub const STRATA_TABLE1: [(&str, DramCols, DramCols); 12] = [
-    (
-        "Sibenik",
-        d(39.0, 69.0, 39.0, 21.0, 1.7),
-        d(15.0, 84.0, 31.0, 23.0, 0.98),
-    ), // Table 1, row 1
-    (
-        "Fairy",
-        d(22.0, 62.0, 49.0, 12.0, 1.1),
-        d(14.0, 83.0, 45.0, 16.0, 0.77),
-    ), // Table 1, row 2
-    (
-        "Crytek",
-        d(59.0, 44.0, 60.0, 31.0, 3.5),
-        d(52.0, 84.0, 35.0, 34.0, 2.0),
-    ), // Table 1, row 3
-    (
-        "Conference",
-        d(18.0, 57.0, 42.0, 17.0, 1.1),
-        d(9.0, 83.0, 35.0, 23.0, 0.84),
-    ), // Table 1, row 4
-    (
-        "Dragon",
-        d(70.0, 55.0, 264.0, 22.0, 3.2),
-        d(78.0, 80.0, 63.0, 25.0, 2.5),
-    ), // Table 1, row 5
-    (
-        "Dragon Box",
-        d(168.0, 35.0, 429.0, 71.0, 10.1),
-        d(252.0, 80.0, 65.0, 57.0, 7.3),
-    ), // Table 1, row 6
-    (
-        "Buddha",
-        d(47.0, 63.0, 219.0, 13.0, 1.9),
-        d(86.0, 77.0, 83.0, 23.0, 2.7),
-    ), // Table 1, row 7
-    (
-        "Buddha Box",
-        d(133.0, 31.0, 416.0, 61.0, 8.6),
-        d(224.0, 78.0, 63.0, 54.0, 6.8),
-    ), // Table 1, row 8
-    (
-        "Vegetation",
-        d(148.0, 43.0, 346.0, 56.0, 8.2),
-        d(160.0, 77.0, 53.0, 51.0, 5.4),
-    ), // Table 1, row 9
-    (
-        "Sodahall",
-        d(5.0, 64.0, 41.0, 8.0, 0.4),
-        d(4.5, 72.0, 69.0, 9.0, 0.4),
-    ), // Table 1, row 10
-    (
-        "Hairball",
-        d(135.0, 48.0, 352.0, 46.0, 6.9),
-        d(126.0, 75.0, 62.0, 40.0, 4.3),
-    ), // Table 1, row 11
-    (
-        "San Miguel",
-        d(218.0, 27.0, 352.0, 108.0, 14.8),
-        d(323.0, 60.0, 169.0, 94.0, 13.7),
-    ), // Table 1, row 12
-];
-
-/// STRaTA Table 3: (scene, baseline RF J, baseline iCache J, STRaTA RF J, STRaTA iCache J,
-/// Diff % = STRaTA's sum as a percentage of the baseline's).
-pub const STRATA_TABLE3: [(&str, f64, f64, f64, f64, f64); 12] = [
-    ("Sibenik", 1.18, 0.9, 0.88, 0.73, 77.0), // Table 3, row 1
-    ("Fairy", 0.67, 0.51, 0.49, 0.41, 76.0),  // Table 3, row 2
-    ("Crytek", 1.85, 1.42, 1.33, 1.11, 75.0), // Table 3, row 3
-    ("Conference", 1.0, 0.76, 0.71, 0.59, 74.0), // Table 3, row 4
-    ("Dragon", 0.53, 0.4, 0.45, 0.36, 87.0),  // Table 3, row 5
-    ("Dragon Box", 1.27, 0.97, 1.02, 0.83, 83.0), // Table 3, row 6
-    ("Buddha", 0.36, 0.28, 0.32, 0.25, 89.0), // Table 3, row 7
-    ("Buddha Box", 0.98, 0.75, 0.8, 0.65, 84.0), // Table 3, row 8
-    ("Vegetation", 1.74, 1.33, 1.25, 1.04, 75.0), // Table 3, row 9
-    ("Sodahall", 0.49, 0.38, 0.36, 0.3, 76.0), // Table 3, row 10
-    ("Hairball", 1.11, 0.84, 0.77, 0.64, 72.0), // Table 3, row 11
-    ("San Miguel", 1.96, 1.5, 1.38, 1.15, 73.0), // Table 3, row 12
-];
+/// STRaTA Tables 1 and 3, kept once in `rtsim-strata` (which `rtsim compare` prints beside
+/// its runs).
+pub use rtsim_strata::paper::{
+    DramRow as DramCols, TABLE1 as STRATA_TABLE1, TABLE3 as STRATA_TABLE3,
+};
 
 /// STRaTA §1 on Figure 1: "DRAM energy takes up slightly over 60% of the entire energy for a
 /// frame for this system" (the baseline, averaged over all scenes). The figure's other
@@ -418,28 +318,6 @@ pub const SGRT_TABLE6: [SgrtTable6Col; 5] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn strata_table3_diff_is_the_ratio_of_the_sums() {
-        // The printed Diff column must follow from the printed energies (to its rounding):
-        // a check that the rows were transcribed into the right columns.
-        for (scene, rf, ic, srf, sic, diff) in STRATA_TABLE3 {
-            let ours = 100.0 * (srf + sic) / (rf + ic);
-            assert!((ours - diff).abs() < 1.5, "{scene}: {ours} vs {diff}");
-        }
-    }
-
-    #[test]
-    fn strata_table1_energy_percentages_match_the_print() {
-        // Printed "(58%)", "(70%)" … for STRaTA energy as a share of the baseline's.
-        let printed = [
-            58.0, 70.0, 57.0, 76.0, 78.0, 72.0, 142.0, 79.0, 66.0, 100.0, 62.0, 93.0,
-        ];
-        for ((scene, b, s), p) in STRATA_TABLE1.iter().zip(printed) {
-            let pct = 100.0 * s.dram_energy_j / b.dram_energy_j;
-            assert!((pct - p).abs() < 3.5, "{scene}: {pct} vs {p}");
-        }
-    }
 
     #[test]
     fn sgrt_table4_ratios_follow_from_the_rates() {

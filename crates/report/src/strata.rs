@@ -457,7 +457,10 @@ pub fn figure7(r: &Results) -> Figure {
 fn scene_order(r: &Results) -> Vec<(Option<&'static str>, Option<String>)> {
     let mut out: Vec<(Option<&'static str>, Option<String>)> = paper::STRATA_TABLE1
         .iter()
-        .map(|(p, _, _)| (Some(*p), paper::our_scene(p).map(str::to_string)))
+        .map(|t| {
+            let p = t.paper_scene;
+            (Some(p), paper::our_scene(p).map(str::to_string))
+        })
         .collect();
     let mut extra: Vec<String> = r
         .rows
@@ -479,7 +482,7 @@ fn dram_paper(c: &DramCols, baseline_j: Option<f64>) -> String {
     };
     [
         c.accesses_m.to_string(),
-        c.row_hit_pct.to_string(),
+        c.row_hit_percent.to_string(),
         c.read_latency_cycles.to_string(),
         c.ms_per_frame.to_string(),
         energy,
@@ -526,9 +529,10 @@ pub fn table1(r: &Results) -> String {
             .map(str::to_string)
             .or(ours.clone())
             .unwrap_or_default();
-        if let Some((_, b, s)) = paper::STRATA_TABLE1
+        if let Some((b, s)) = paper::STRATA_TABLE1
             .iter()
-            .find(|t| Some(t.0) == paper_scene)
+            .find(|t| Some(t.paper_scene) == paper_scene)
+            .map(|t| (&t.baseline, &t.strata))
         {
             body.push((
                 "paper".to_string(),
@@ -598,12 +602,18 @@ pub fn table3(r: &Results) -> String {
             .unwrap_or_default();
         if let Some(t) = paper::STRATA_TABLE3
             .iter()
-            .find(|t| Some(t.0) == paper_scene)
+            .find(|t| Some(t.paper_scene) == paper_scene)
         {
-            let cells = [t.1, t.2, t.3, t.4, t.5]
-                .iter()
-                .map(|v| td(&v.to_string()))
-                .collect::<String>();
+            let cells = [
+                t.baseline_rf_j,
+                t.baseline_icache_j,
+                t.strata_rf_j,
+                t.strata_icache_j,
+                t.diff_percent,
+            ]
+            .iter()
+            .map(|v| td(&v.to_string()))
+            .collect::<String>();
             body.push(("paper".to_string(), td(&name) + &td("paper") + &cells));
         }
         let missing = if ours.is_some() {

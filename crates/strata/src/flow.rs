@@ -332,16 +332,9 @@ struct Flow<'a> {
     caches: Option<FunctionalHierarchy>,
 }
 
-/// Render `input` with STRaTA's ray flow on `chip` (see the module docs).
-pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<FlowOutput, FlowError> {
-    let treelets = input.image.treelets().ok_or(FlowError::NoTreelets)?;
-    if input.tracer.traversal() != Traversal::BitStack {
-        return Err(FlowError::NotBitStack);
-    }
-    if chip.tms == 0 || chip.tps_per_tm == 0 {
-        return Err(FlowError::NoTps);
-    }
-    let bvh = input.tracer.bvh();
+/// Per triangle slot: its leaf, and whether it is the leaf's last (after which a ray returns
+/// from the triangle treelet to the leaf's node treelet).
+pub(crate) fn leaf_maps(bvh: &rtsim_bvh::Bvh) -> (Vec<u32>, Vec<bool>) {
     let slots = bvh.prim_ids.len();
     let mut leaf_of_slot = vec![u32::MAX; slots];
     let mut last_of_leaf = vec![false; slots];
@@ -353,6 +346,19 @@ pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<Flow
             last_of_leaf[(n.index + n.count - 1) as usize] = true;
         }
     }
+    (leaf_of_slot, last_of_leaf)
+}
+
+/// Render `input` with STRaTA's ray flow on `chip` (see the module docs).
+pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<FlowOutput, FlowError> {
+    let treelets = input.image.treelets().ok_or(FlowError::NoTreelets)?;
+    if input.tracer.traversal() != Traversal::BitStack {
+        return Err(FlowError::NotBitStack);
+    }
+    if chip.tms == 0 || chip.tps_per_tm == 0 {
+        return Err(FlowError::NoTps);
+    }
+    let (leaf_of_slot, last_of_leaf) = leaf_maps(input.tracer.bvh());
     let buffers = treelets.len() as u32;
     let stream = StreamMemory::new(&cfg.stream, buffers)?;
     let caches = match &chip.caches {

@@ -152,7 +152,7 @@ const fn t3(paper_scene: &'static str, scene: Option<&'static str>, v: [f64; 5])
 
 /// STRaTA Table 3 ("Energy consumption (in Joules) for components affected by phase-specific
 /// pipelines").
-pub const TABLE3: [Table3Row; 11] = [
+pub const TABLE3: [Table3Row; 12] = [
     t3("Sibenik", Some("sibenik"), [1.18, 0.9, 0.88, 0.73, 77.0]),
     t3("Fairy", None, [0.67, 0.51, 0.49, 0.41, 76.0]),
     t3(
@@ -184,6 +184,7 @@ pub const TABLE3: [Table3Row; 11] = [
     ),
     t3("Sodahall", None, [0.49, 0.38, 0.36, 0.3, 76.0]),
     t3("Hairball", Some("hairball"), [1.11, 0.84, 0.77, 0.64, 72.0]),
+    t3("San Miguel", None, [1.96, 1.5, 1.38, 1.15, 73.0]),
 ];
 
 /// Table 1's row for rtsim scene `scene`, if the paper has one.
@@ -204,9 +205,13 @@ mod tests {
     fn the_tables_agree_with_themselves() {
         // Table 1's percentages of baseline DRAM energy (58 % for Sibenik …) follow from its
         // energies, within the table's rounding.
-        let pct = |r: &Table1Row| 100.0 * r.strata.dram_energy_j / r.baseline.dram_energy_j;
-        assert!((pct(table1("sibenik").unwrap()) - 58.0).abs() < 1.5);
-        assert!((pct(table1("hairball").unwrap()) - 62.0).abs() < 1.5);
+        let printed = [
+            58.0, 70.0, 57.0, 76.0, 78.0, 72.0, 142.0, 79.0, 66.0, 100.0, 62.0, 93.0,
+        ];
+        for (r, p) in TABLE1.iter().zip(printed) {
+            let pct = 100.0 * r.strata.dram_energy_j / r.baseline.dram_energy_j;
+            assert!((pct - p).abs() < 3.5, "{}: {pct} vs {p}", r.paper_scene);
+        }
         // Table 3's Diff column is the sums' ratio, within rounding.
         for r in TABLE3 {
             let diff = 100.0 * (r.strata_rf_j + r.strata_icache_j)

@@ -240,18 +240,7 @@ impl<'a> StrataSource<'a> {
         if frame.tracer.traversal() != Traversal::BitStack {
             return Err(TimedError::NotBitStack);
         }
-        let bvh = frame.tracer.bvh();
-        let slots = bvh.prim_ids.len();
-        let mut leaf_of_slot = vec![u32::MAX; slots];
-        let mut last_of_leaf = vec![false; slots];
-        for (i, n) in bvh.nodes.iter().enumerate() {
-            if n.is_leaf() && n.count > 0 {
-                for s in n.index..n.index + n.count {
-                    leaf_of_slot[s as usize] = i as u32;
-                }
-                last_of_leaf[(n.index + n.count - 1) as usize] = true;
-            }
-        }
+        let (leaf_of_slot, last_of_leaf) = crate::flow::leaf_maps(frame.tracer.bvh());
         let buffers = treelets.len() as u32;
         let stream = StreamMemory::with_path_table(&cfg.stream, buffers, cfg.path_bytes)?;
         let n_paths = stream.capacity().min(frame.pixels.len() as u32);

@@ -1,15 +1,12 @@
 //! `arch.preset = "strata"`: STRaTA on the TRaX chip (`rtsim-strata`), cycle by cycle.
 
-use super::trax::si;
+use super::trax::{self, Ran};
 use super::{RunFacts, SimOutput, Timing};
 use crate::session::Session;
 use anyhow::Result;
-use rtsim_run::SimMode;
 use rtsim_strata::timed::{StrataFacts, StrataOutput};
-use rtsim_trace::Integrator;
-use rtsim_trax::{Engine, Frame, Options, TraxReport};
+use rtsim_trax::TraxReport;
 use serde::Serialize;
-use std::time::Instant;
 
 #[derive(Debug, Serialize)]
 struct StrataStats {
@@ -21,62 +18,22 @@ struct StrataStats {
     strata: StrataFacts,
 }
 
-/// A frame run on the STRaTA chip, with its host cost.
-pub(crate) struct Ran {
-    pub out: StrataOutput,
-    pub params: rtsim_trace::WorkloadParams,
-    pub pixels: Vec<u32>,
-    pub seconds: f64,
-    pub cpu_seconds: Option<f64>,
-}
-
-/// Run the session's frame on the STRaTA chip, with a progress bar on terminals.
-pub(crate) fn frame(s: &Session) -> Result<Ran> {
+/// Run the session's frame on the STRaTA chip.
+pub(crate) fn frame(s: &Session) -> Result<Ran<StrataOutput>> {
     let cfg = &s.resolved.config;
-    let params = rtsim_run::workload_params(&s.resolved);
-    let integ = Integrator::new(&s.resolved.scene, &s.tracer, params.clone());
-    let (w, h) = (params.width, params.height);
-    let pixels = cfg.sim.pixels(w, h);
-    let engine = match cfg.sim.mode {
-        SimMode::Fast => Engine::Fast,
-        SimMode::Reference => Engine::Reference,
-    };
-    let bar = crate::progress::bar(pixels.len() as u64, "pixels");
-    let cpu_start = crate::cputime::process_seconds();
-    let start = Instant::now();
-    let out = rtsim_strata::timed::simulate(
-        &cfg.arch.trax,
-        &cfg.arch.strata,
-        &cfg.dram,
-        Frame {
-            integ: &integ,
-            tracer: &s.tracer,
-            image: &s.image,
-            pixels: &pixels,
-            image_pixels: (w * h) as usize,
-        },
-        &Options {
-            engine,
-            cycle_limit: cfg.sim.cycle_limit,
-            seed: cfg.seed,
-        },
-        &mut |p| {
-            bar.set_position(p.pixels_done);
-            bar.set_message(format!("{} cycles, {} rays", si(p.cycle), si(p.rays)));
-        },
-    )?;
-    let seconds = start.elapsed().as_secs_f64();
-    let cpu_seconds = crate::cputime::process_seconds()
-        .zip(cpu_start)
-        .map(|(b, a)| b - a);
-    bar.finish_and_clear();
-    Ok(Ran {
-        out,
-        params,
-        pixels,
-        seconds,
-        cpu_seconds,
-    })
+    trax::frame_on(
+        s,
+        Box::new(|f, o, p| {
+            Ok(rtsim_strata::timed::simulate(
+                &cfg.arch.trax,
+                &cfg.arch.strata,
+                &cfg.dram,
+                f,
+                o,
+                p,
+            )?)
+        }),
+    )
 }
 
 pub fn run(s: &Session) -> Result<SimOutput> {

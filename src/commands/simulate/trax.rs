@@ -26,9 +26,9 @@ pub(crate) fn si(n: u64) -> String {
     }
 }
 
-/// A frame run on the chip, with its host cost.
-pub(crate) struct Ran {
-    pub out: rtsim_trax::Output,
+/// A frame run on the chip (`O`: the chip's output), with its host cost.
+pub(crate) struct Ran<O = rtsim_trax::Output> {
+    pub out: O,
     pub params: rtsim_trace::WorkloadParams,
     /// The pixels simulated (the window's).
     pub pixels: Vec<u32>,
@@ -37,8 +37,12 @@ pub(crate) struct Ran {
     pub cpu_seconds: Option<f64>,
 }
 
-/// Run the session's frame on the TRaX chip, with a progress bar on terminals.
-pub(crate) fn frame(s: &Session) -> Result<Ran> {
+/// What runs a frame on a TRaX-chip model: the frame, the engine options, a progress sink.
+pub(crate) type ChipRun<'s, O> =
+    dyn FnOnce(Frame<'_>, &Options, &mut dyn FnMut(rtsim_trax::Progress)) -> Result<O> + 's;
+
+/// Run the session's frame on a TRaX-chip model (`chip`), with a progress bar on terminals.
+pub(crate) fn frame_on<O>(s: &Session, chip: Box<ChipRun<'_, O>>) -> Result<Ran<O>> {
     let cfg = &s.resolved.config;
     let params = rtsim_run::workload_params(&s.resolved);
     let integ = Integrator::new(&s.resolved.scene, &s.tracer, params.clone());
@@ -51,9 +55,7 @@ pub(crate) fn frame(s: &Session) -> Result<Ran> {
     let bar = crate::progress::bar(pixels.len() as u64, "pixels");
     let cpu_start = crate::cputime::process_seconds();
     let start = Instant::now();
-    let out = rtsim_trax::simulate(
-        &cfg.arch.trax,
-        &cfg.dram,
+    let out = chip(
         Frame {
             integ: &integ,
             tracer: &s.tracer,
@@ -83,6 +85,15 @@ pub(crate) fn frame(s: &Session) -> Result<Ran> {
         seconds,
         cpu_seconds,
     })
+}
+
+/// Run the session's frame on the TRaX chip.
+pub(crate) fn frame(s: &Session) -> Result<Ran> {
+    let cfg = &s.resolved.config;
+    frame_on(
+        s,
+        Box::new(|f, o, p| Ok(rtsim_trax::simulate(&cfg.arch.trax, &cfg.dram, f, o, p)?)),
+    )
 }
 
 pub fn run(s: &Session) -> Result<SimOutput> {
