@@ -45,6 +45,18 @@ pub enum Policy {
     RoundRobin,
 }
 
+/// When a TM leaves its treelet (issue 10 §2: "buffer empty, or a threshold").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Switch {
+    /// As soon as a pop finds its buffer empty (default).
+    #[default]
+    Empty,
+    /// When the buffer is empty and none of the TM's TPs still holds a ray (rays it is
+    /// running may come back to the treelet); until then its idle TPs wait and poll.
+    Drained,
+}
+
 impl Policy {
     pub fn name(self) -> &'static str {
         match self {
@@ -120,6 +132,9 @@ pub struct StrataConfig {
     /// Sibenik at 320 × 320 the functional flow needs 23× more rounds with 1 than with no
     /// limit, `docs/STRATA.md`). Each TM on a buffer loads the treelet into its own L1.
     pub tms_per_buffer: u32,
+    /// When a TM leaves its treelet: `empty` (default: a pop finds the buffer empty) or
+    /// `drained` (also none of its TPs holds a ray). Assumed: the paper does not say.
+    pub switch: Switch,
     /// Fused box and triangle pipelines (STRaTA §3.3). Default true. Needs streaming: without
     /// treelets a TM would reconfigure for every ray (§5.3: "reconfiguring the pipelines for
     /// individual rays would add significant overhead").
@@ -150,6 +165,7 @@ impl Default for StrataConfig {
             l2_bytes: L2_BYTES_DEFAULT,
             policy: Policy::MostRays,
             tms_per_buffer: 0,
+            switch: Switch::Empty,
             fused: true,
             triangle_pipelines: 2,
             reconfigure_cycles: 1,

@@ -85,6 +85,9 @@ pub struct StrataFacts {
     /// the TM must reconfigure and still has TPs holding rays.
     pub empty_polls: u64,
     pub drain_waits: u64,
+    /// Pops refused under `switch = drained`: the buffer is empty but TPs of the TM still hold
+    /// rays.
+    pub hold_waits: u64,
     /// Stream accesses that waited a cycle for their bank: pops, pushes, path records.
     pub bank_conflicts: u64,
     pub bank_conflicts_by_op: [u64; 3],
@@ -661,6 +664,10 @@ impl<'a> StrataSource<'a> {
         if let Some(b) = self.tms[tm].treelet
             && self.stream.count(b) == 0
         {
+            if self.cfg.switch == crate::config::Switch::Drained && self.tms[tm].holding > 0 {
+                self.facts.hold_waits += 1;
+                return Ok(poll);
+            }
             self.holders[b as usize] -= 1;
             self.tms[tm].treelet = None;
         }

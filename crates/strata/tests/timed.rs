@@ -158,3 +158,18 @@ fn a_tiny_stream_memory_loses_nothing_and_runs_repeat_exactly() {
     assert_eq!(a.out.report.issue, b.out.report.issue);
     assert_eq!(a.strata, b.strata);
 }
+
+#[test]
+fn the_drained_switch_rule_changes_timing_not_the_image() {
+    let w = world(12, 12);
+    let reference = functional(&w, &params(&w));
+    let cfg = StrataConfig {
+        switch: rtsim_strata::Switch::Drained,
+        ..StrataConfig::default()
+    };
+    let f = run(&w, &cfg, &chip(2, 8), Engine::Fast);
+    assert_same(&f, &reference);
+    let r = run(&w, &cfg, &chip(2, 8), Engine::Reference);
+    assert_eq!(f.out.report.cycles, r.out.report.cycles);
+    assert_eq!(f.strata, r.strata);
+}
