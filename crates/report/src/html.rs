@@ -179,11 +179,15 @@ mod tests {
 
     #[test]
     fn our_cells_carry_their_source_and_exact_value() {
-        let mut a = Row::default();
-        a.point = 2;
+        let mut a = Row {
+            point: 2,
+            ..Row::default()
+        };
         a.values.insert("x".into(), Cell::Num(1.0));
-        let mut b = Row::default();
-        b.point = 5;
+        let mut b = Row {
+            point: 5,
+            ..Row::default()
+        };
         b.values.insert("x".into(), Cell::Num(2.5));
         let v = Val::mean(&[&a, &b], "x");
         let cell = td_val(&v, |x| fixed(x, 1), "not run");

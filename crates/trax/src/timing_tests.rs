@@ -2,7 +2,7 @@
 //! a unit or a fetch bank, under both engines.
 
 use crate::chip::Chip;
-use crate::isa::{Class, Inst, Mem, NO_REG, regs};
+use crate::isa::{Class, Inst, NO_REG, regs};
 use crate::program::{Program, Run, Seg};
 use crate::work::{Ctx, Work};
 use crate::{Engine, Options, Output, TraxConfig};
