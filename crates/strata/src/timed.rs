@@ -28,13 +28,13 @@
 //! construction: the values come from the functional kernels; timing decides only when.
 
 use crate::config::StrataConfig;
-use crate::flow::Ready;
+use crate::flow::{FlowError, Ready};
 use crate::pipeline;
 use crate::program::StrataProgram;
-use crate::stream::{StreamError, StreamLayout, StreamMemory, StreamStats};
+use crate::stream::{StreamLayout, StreamMemory, StreamStats};
 use rtsim_bvh::{TreeletKind, Treelets};
 use rtsim_trace::step::Step;
-use rtsim_trace::step::bitstack::{RecordError, State};
+use rtsim_trace::step::bitstack::State;
 use rtsim_trace::{
     FrameStats, Kernel, Next, PathState, RayCounters, RayJob, Resumed, TraceResult, Traversal,
     TraversalState,
@@ -51,17 +51,10 @@ use serde::Serialize;
 /// Why the timed chip could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum TimedError {
-    #[error(
-        "the memory image has no treelets: STRaTA needs memory.layout = \"treelets\" \
-         (STRaTA §3.1)"
-    )]
-    NoTreelets,
-    #[error("the tracer must run trace.traversal = \"bit-stack\" (STRaTA §3.2)")]
-    NotBitStack,
+    /// What the functional flow refuses too (no treelets, not bit-stack, a stream or record
+    /// error).
     #[error(transparent)]
-    Stream(#[from] StreamError),
-    #[error("a ray cannot be stored as a 48-byte record: {0}")]
-    Record(#[from] RecordError),
+    Flow(#[from] FlowError),
     #[error(transparent)]
     Chip(#[from] ChipError),
     #[error(transparent)]
@@ -239,13 +232,14 @@ impl<'a> StrataSource<'a> {
         cfg: &StrataConfig,
         trax: &TraxConfig,
     ) -> Result<StrataSource<'a>, TimedError> {
-        let treelets = frame.image.treelets().ok_or(TimedError::NoTreelets)?;
+        let treelets = frame.image.treelets().ok_or(FlowError::NoTreelets)?;
         if frame.tracer.traversal() != Traversal::BitStack {
-            return Err(TimedError::NotBitStack);
+            return Err(FlowError::NotBitStack.into());
         }
         let (leaf_of_slot, last_of_leaf) = crate::flow::leaf_maps(frame.tracer.bvh());
         let buffers = treelets.len() as u32;
-        let stream = StreamMemory::with_path_table(&cfg.stream, buffers, cfg.path_bytes)?;
+        let stream = StreamMemory::with_path_table(&cfg.stream, buffers, cfg.path_bytes)
+            .map_err(FlowError::from)?;
         let n_paths = stream.capacity().min(frame.pixels.len() as u32);
         let mut base = [0u8; UNIT_CLASSES];
         for (k, (_, u)) in trax.units.by_class().iter().enumerate() {
@@ -376,9 +370,11 @@ impl<'a> StrataSource<'a> {
                 p.counters = RayCounters::default();
                 let TraversalState::BitStack(s) = self.frame.tracer.start(&job.ray, job.query)
                 else {
-                    return Err(TimedError::NotBitStack);
+                    return Err(FlowError::NotBitStack.into());
                 };
-                let rec = s.to_record(id, job.id.kind as u8)?;
+                let rec = s
+                    .to_record(id, job.id.kind as u8)
+                    .map_err(FlowError::from)?;
                 self.push_run(tp, Run::new(self.sp.path_write));
                 self.push_run(tp, Run::new(self.sp.push));
                 self.facts.pushes_root += 1;
@@ -506,7 +502,7 @@ impl<'a> StrataSource<'a> {
         };
         self.step_runs(tp, &step);
         let TraversalState::BitStack(s) = ts else {
-            return Err(TimedError::NotBitStack);
+            return Err(FlowError::NotBitStack.into());
         };
         let b = self.tps[tp].treelet;
         let to = match step {
@@ -548,7 +544,7 @@ impl<'a> StrataSource<'a> {
                 .job
                 .id
                 .kind as u8;
-            let rec = s.to_record(id, kind)?;
+            let rec = s.to_record(id, kind).map_err(FlowError::from)?;
             self.push_run(tp, Run::new(self.sp.push));
             self.push_run(tp, Run::new(self.sp.pop));
             let w = &mut self.tps[tp];
@@ -605,7 +601,7 @@ impl<'a> StrataSource<'a> {
                         return Ok(None);
                     }
                     let rec = w.popped.take().expect("the pop has answered");
-                    let (state, id, _) = State::from_record(&rec)?;
+                    let (state, id, _) = State::from_record(&rec).map_err(FlowError::from)?;
                     w.path = Some(id);
                     w.trav = Some(TraversalState::BitStack(state));
                     w.phase = Phase::Ray;
@@ -717,7 +713,11 @@ impl<'a> StrataSource<'a> {
             });
         }
         let old = self.stream.count(b);
-        let rec = self.stream.pop(b)?.expect("the buffer holds a ray");
+        let rec = self
+            .stream
+            .pop(b)
+            .map_err(FlowError::from)?
+            .expect("the buffer holds a ray");
         self.ready.update(b, old, old - 1);
         self.tms[tm].holding += 1;
         let w = &mut self.tps[tp];

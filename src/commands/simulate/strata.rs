@@ -1,7 +1,7 @@
 //! `arch.preset = "strata"`: STRaTA on the TRaX chip (`rtsim-strata`), cycle by cycle.
 
 use super::trax::{self, Ran};
-use super::{RunFacts, SimOutput, Timing};
+use super::{RunFacts, SimOutput};
 use crate::session::Session;
 use anyhow::Result;
 use rtsim_strata::timed::{StrataFacts, StrataOutput};
@@ -37,28 +37,9 @@ pub(crate) fn frame(s: &Session) -> Result<Ran<StrataOutput>> {
 }
 
 pub fn run(s: &Session) -> Result<SimOutput> {
-    let cfg = &s.resolved.config;
-    let Ran {
-        out,
-        params,
-        pixels,
-        seconds,
-        ..
-    } = frame(s)?;
-    let StrataOutput { out, strata } = out;
-    let (w, h) = (params.width, params.height);
-    let r = &out.report;
-    let mut summary = vec![format!(
-        "arch             {} ({} pixels of {}x{}, {} rays, traversal {})",
-        cfg.arch.preset,
-        pixels.len(),
-        w,
-        h,
-        out.rays.total().rays,
-        s.tracer.traversal().name()
-    )];
-    summary.extend(r.summary());
-    summary.push(format!(
+    let r = frame(s)?;
+    let StrataOutput { out, strata } = r.out;
+    let extra = vec![format!(
         "stream memory    {} paths, {} pushes, {} pops, {} path records, {:.3} mJ; {} treelet \
          switches, {} reconfigurations",
         strata.paths,
@@ -68,31 +49,19 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         strata.stream_energy_j * 1e3,
         strata.treelet_switches,
         strata.reconfigurations
-    ));
-    let tp_cycles = r.cycles as f64 * r.chip.tps as f64;
-    let cycles_per_second = r.cycles as f64 / seconds;
-    summary.push(format!(
-        "host             {seconds:.2} s: {:.0} cycles/s, {:.1} M TP-cycles/s, {:.1} M instructions/s",
-        cycles_per_second,
-        tp_cycles / seconds / 1e6,
-        r.instructions.total as f64 / seconds / 1e6
-    ));
-    Ok(SimOutput {
-        heat: out.heat.clone(),
-        heat_label: "core cycles",
-        stats: Box::new(StrataStats {
-            run: RunFacts::of(s, &params, pixels.len(), &out.rays),
-            trax: out.report,
+    )];
+    let ran = Ran {
+        out,
+        params: r.params,
+        pixels: r.pixels,
+        seconds: r.seconds,
+        cpu_seconds: r.cpu_seconds,
+    };
+    trax::output(s, ran, extra, |run, report| {
+        Box::new(StrataStats {
+            run,
+            trax: report,
             strata,
-        }),
-        pixels: out.pixels,
-        timing: Timing {
-            threads: 1,
-            bvh_build_seconds: s.build_seconds,
-            simulate_seconds: seconds,
-            cycles_per_second,
-        },
-        summary,
-        files: Vec::new(),
+        })
     })
 }

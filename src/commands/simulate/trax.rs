@@ -97,6 +97,21 @@ pub(crate) fn frame(s: &Session) -> Result<Ran> {
 }
 
 pub fn run(s: &Session) -> Result<SimOutput> {
+    let ran = frame(s)?;
+    output(s, ran, Vec::new(), |run, report| {
+        Box::new(TraxStats { run, trax: report })
+    })
+}
+
+/// The `simulate` output of a frame on a TRaX-chip model: the summary (the chip's report,
+/// then `extra` lines, then the host's rates), the timing, and the stats `stats` builds from
+/// the run's facts and the chip's report.
+pub(crate) fn output(
+    s: &Session,
+    ran: Ran,
+    extra: Vec<String>,
+    stats: impl FnOnce(RunFacts, TraxReport) -> Box<dyn super::erased::Stats>,
+) -> Result<SimOutput> {
     let cfg = &s.resolved.config;
     let Ran {
         out,
@@ -104,7 +119,7 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         pixels,
         seconds,
         ..
-    } = frame(s)?;
+    } = ran;
     let (w, h) = (params.width, params.height);
     let r = &out.report;
     let mut summary = vec![format!(
@@ -117,6 +132,7 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         s.tracer.traversal().name()
     )];
     summary.extend(r.summary());
+    summary.extend(extra);
     let tp_cycles = r.cycles as f64 * r.chip.tps as f64;
     let cycles_per_second = r.cycles as f64 / seconds;
     summary.push(format!(
@@ -125,13 +141,11 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         tp_cycles / seconds / 1e6,
         r.instructions.total as f64 / seconds / 1e6
     ));
+    let run = RunFacts::of(s, &params, pixels.len(), &out.rays);
     Ok(SimOutput {
         heat: out.heat.clone(),
         heat_label: "core cycles",
-        stats: Box::new(TraxStats {
-            run: RunFacts::of(s, &params, pixels.len(), &out.rays),
-            trax: out.report,
-        }),
+        stats: stats(run, out.report),
         pixels: out.pixels,
         timing: Timing {
             threads: 1,
