@@ -14,7 +14,7 @@
 //! memory or a long-latency unit costs nothing until it can act.
 
 use crate::chip::{Chip, ChipError, Offered, Wait};
-use crate::isa::UNIT_CLASSES;
+use crate::isa::{Class, UNIT_CLASSES};
 use crate::source::Source;
 use crate::stats::Stall;
 use std::cmp::Reverse;
@@ -242,6 +242,70 @@ impl Wheel {
     }
 }
 
+/// TPs refused by the atomic unit, waiting for it. The reference offers every one of them
+/// again each cycle, and all but the first `count` (in (TM, key, TP) order, the order of the
+/// cycle's offers) are refused again, which changes nothing but the stall count. So only the
+/// first `count` are offered in the next cycle (woken through the wheel); the others wait
+/// here, and their stall cycles are charged when they are woken. A waiter's key does not
+/// change while it waits, and new offerers come either from the wheel (keys below the
+/// cycle, in the same order) or from TPs resuming in the cycle (offered after them): the
+/// first `count` of all offerers are among the first `count` waiters and the new ones.
+#[derive(Debug, Default)]
+struct AtomicQueue {
+    /// (TM, key, TP), smallest first; the TP's `access_at` holds the cycle it was refused.
+    waiting: BinaryHeap<Reverse<(u32, u64, u32)>>,
+}
+
+impl AtomicQueue {
+    /// TP `tp`, refused at `t`, waits.
+    fn park<S: Source>(&mut self, chip: &mut Chip<'_, S>, tp: usize, t: u64) {
+        let c = &mut chip.cores[tp];
+        c.access_at = t;
+        self.waiting.push(Reverse((c.tm, c.key, tp as u32)));
+    }
+
+    /// End of cycle `t`: the first `count` waiters offer again at `t + 1`.
+    fn wake<S: Source>(&mut self, chip: &mut Chip<'_, S>, wheel: &mut Wheel, t: u64) {
+        for _ in 0..chip.cfg.atomic.count {
+            let Some(Reverse((_, _, tp))) = self.waiting.pop() else {
+                return;
+            };
+            let c = &mut chip.cores[tp as usize];
+            chip.issue.stall[Stall::Atomic as usize] += t - c.access_at;
+            c.access_at = t + 1;
+            wheel.add(t + 1, tp as usize);
+        }
+    }
+
+    /// The run stops after cycle `last`: charge the waiters' refusals up to it.
+    fn flush<S: Source>(&mut self, chip: &mut Chip<'_, S>, last: u64) {
+        for Reverse((_, _, tp)) in self.waiting.drain() {
+            chip.issue.stall[Stall::Atomic as usize] += last - chip.cores[tp as usize].access_at;
+        }
+    }
+}
+
+/// TP `tp`'s access (instruction `i`) was refused at `t`: it offers again at `retry_at`, or
+/// waits for the atomic unit.
+#[inline]
+fn refused<S: Source>(
+    chip: &mut Chip<'_, S>,
+    wheel: &mut Wheel,
+    atomics: &mut AtomicQueue,
+    tp: usize,
+    i: usize,
+    t: u64,
+    retry_at: u64,
+) {
+    if chip.dec[i].class == Class::Atomic {
+        debug_assert_eq!(retry_at, t + 1);
+        atomics.park(chip, tp, t);
+    } else {
+        chip.cores[tp].access_at = retry_at;
+        wheel.add(retry_at, tp);
+    }
+}
+
 /// Progress callback: called now and then with the chip and the current cycle.
 /// Called with the cycle, the pixels finished and the rays traced.
 pub(crate) type Progress<'p> = &'p mut dyn FnMut(u64, u64, u64);
@@ -268,6 +332,7 @@ pub fn run<S: Source>(
     let mut done = std::mem::take(&mut chip.completions);
     let mut last = 0;
     let mut ticks = 0u32;
+    let mut atomics = AtomicQueue::default();
     loop {
         let t_tp = wheel.next();
         let t_mem = chip.hier.next_event();
@@ -316,14 +381,15 @@ pub fn run<S: Source>(
             if let Some(&(_, _, ahead)) = offers.get(k + AHEAD) {
                 prefetch_tp(chip, ahead as usize);
             }
-            offer(chip, &mut wheel, tp as usize, t)?;
+            offer(chip, &mut wheel, &mut atomics, tp as usize, t)?;
         }
         for (k, &tp) in batch.iter().enumerate() {
             if let Some(&ahead) = batch.get(k + AHEAD) {
                 prefetch_tp(chip, ahead as usize);
             }
-            resume(chip, &mut cal, &mut wheel, tp as usize, t)?;
+            resume(chip, &mut cal, &mut wheel, &mut atomics, tp as usize, t)?;
         }
+        atomics.wake(chip, &mut wheel, t);
         last = t;
         ticks += 1;
         if ticks & 0x3FFF == 0 {
@@ -334,6 +400,7 @@ pub fn run<S: Source>(
             break;
         }
     }
+    atomics.flush(chip, last);
     chip.completions = done;
     Ok(last)
 }
@@ -375,14 +442,14 @@ fn insertion_sort<T: Ord + Copy>(v: &mut [T]) {
 fn offer<S: Source>(
     chip: &mut Chip<'_, S>,
     wheel: &mut Wheel,
+    atomics: &mut AtomicQueue,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
     debug_assert_eq!(chip.cores[tp].access_at, t);
     let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
     if let Offered::Busy { retry_at } = chip.access(tp, i, t)? {
-        chip.cores[tp].access_at = retry_at;
-        wheel.add(retry_at, tp);
+        refused(chip, wheel, atomics, tp, i, t, retry_at);
     }
     Ok(())
 }
@@ -393,6 +460,7 @@ fn resume<S: Source>(
     chip: &mut Chip<'_, S>,
     cal: &mut Calendar,
     wheel: &mut Wheel,
+    atomics: &mut AtomicQueue,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
@@ -405,7 +473,7 @@ fn resume<S: Source>(
             core.wait = Wait::Ready;
         }
     }
-    run_ahead(chip, cal, wheel, tp, t)
+    run_ahead(chip, cal, wheel, atomics, tp, t)
 }
 
 /// Book TP `tp`'s instructions from its current one, with priority key `t`, up to its next
@@ -415,6 +483,7 @@ fn run_ahead<S: Source>(
     chip: &mut Chip<'_, S>,
     cal: &mut Calendar,
     wheel: &mut Wheel,
+    atomics: &mut AtomicQueue,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
@@ -492,8 +561,7 @@ fn run_ahead<S: Source>(
                 chip.cores[tp].key = t;
             }
             Offered::Busy { retry_at } => {
-                chip.cores[tp].access_at = retry_at;
-                wheel.add(retry_at, tp);
+                refused(chip, wheel, atomics, tp, i, t, retry_at);
                 return Ok(());
             }
         }

@@ -111,6 +111,18 @@ pub fn simulate(
     engine: Engine,
     pixels: &[u32],
 ) -> Output {
+    simulate_until(w, p, cfg, engine, pixels, None)
+}
+
+/// Simulate `pixels` of `w` on `cfg`, stopping after `cycle_limit` cycles if given.
+pub fn simulate_until(
+    w: &World,
+    p: &WorkloadParams,
+    cfg: &TraxConfig,
+    engine: Engine,
+    pixels: &[u32],
+    cycle_limit: Option<u64>,
+) -> Output {
     let integ = Integrator::new(&w.scene, &w.tracer, p.clone());
     rtsim_trax::simulate(
         cfg,
@@ -124,7 +136,7 @@ pub fn simulate(
         },
         &Options {
             engine,
-            cycle_limit: None,
+            cycle_limit,
             seed: 1,
         },
         &mut |_| {},
