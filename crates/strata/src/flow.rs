@@ -234,49 +234,85 @@ struct Path {
     nodes: u32,
 }
 
-/// The buffers a TM may take, ordered for both policies.
+/// The buffers a TM may take, ordered for both policies. It keeps each buffer's ray count
+/// and the TMs holding it (`holders`), so that a pick is one lookup rather than a scan.
 #[derive(Debug, Default)]
 pub(crate) struct Ready {
-    by_count: BTreeSet<(u32, Reverse<u32>)>,
+    /// TPs per TM: a TM on a buffer claims that many of its rays.
+    tps: u32,
+    /// TMs a buffer may have at once (0: any number).
+    limit: u32,
+    counts: Vec<u32>,
+    holders: Vec<u32>,
+    /// Buffers a TM may take under `most-rays`, by (unclaimed rays, lowest id first).
+    by_unclaimed: BTreeSet<(u32, Reverse<u32>)>,
+    /// Non-empty buffers, by id (`round-robin`).
     by_id: BTreeSet<u32>,
 }
 
 impl Ready {
-    /// The buffer a TM takes under `policy`, among buffers with rays held by fewer than
-    /// `limit` TMs (`holders[b]`; 0: any number). `most-rays` ranks buffers by their
-    /// unclaimed rays, the count minus `tps` for every TM already on it (with one TM per
-    /// buffer, simply the count), ties to the lowest id, and never takes a fully claimed one;
-    /// `round-robin` takes the first after `cursor` in id order, wrapping, and moves it.
-    pub(crate) fn pick(
-        &self,
-        policy: Policy,
-        holders: &[u32],
-        limit: u32,
-        tps: u32,
-        cursor: &mut Option<u32>,
-    ) -> Option<u32> {
-        let free = |b: u32| limit == 0 || holders[b as usize] < limit;
+    /// `buffers` empty buffers for TMs of `tps` TPs, at most `limit` TMs per buffer (0: any).
+    pub(crate) fn new(buffers: u32, tps: u32, limit: u32) -> Self {
+        Ready {
+            tps,
+            limit,
+            counts: vec![0; buffers as usize],
+            holders: vec![0; buffers as usize],
+            by_unclaimed: BTreeSet::new(),
+            by_id: BTreeSet::new(),
+        }
+    }
+
+    fn free(&self, b: u32) -> bool {
+        self.limit == 0 || self.holders[b as usize] < self.limit
+    }
+
+    /// Buffer `b`'s place in `by_unclaimed`: its rays minus `tps` for every TM already on it
+    /// (with one TM per buffer, simply the count), if any are left and it may be taken.
+    fn entry(&self, b: u32) -> Option<(u32, Reverse<u32>)> {
+        let claimed = self.holders[b as usize] as u64 * self.tps as u64;
+        let unclaimed = (self.counts[b as usize] as u64).saturating_sub(claimed);
+        (unclaimed > 0 && self.free(b)).then_some((unclaimed as u32, Reverse(b)))
+    }
+
+    /// Change buffer `b`'s count or holders by `f`, keeping the orders.
+    fn change(&mut self, b: u32, f: impl FnOnce(&mut Self)) {
+        if let Some(e) = self.entry(b) {
+            self.by_unclaimed.remove(&e);
+        }
+        f(self);
+        if let Some(e) = self.entry(b) {
+            self.by_unclaimed.insert(e);
+        }
+        if self.counts[b as usize] > 0 {
+            self.by_id.insert(b);
+        } else {
+            self.by_id.remove(&b);
+        }
+    }
+
+    /// Buffer `b` now holds `count` rays.
+    pub(crate) fn update(&mut self, b: u32, count: u32) {
+        self.change(b, |r| r.counts[b as usize] = count);
+    }
+
+    /// A TM takes buffer `b`.
+    pub(crate) fn claim(&mut self, b: u32) {
+        self.change(b, |r| r.holders[b as usize] += 1);
+    }
+
+    /// A TM leaves buffer `b`.
+    pub(crate) fn release(&mut self, b: u32) {
+        self.change(b, |r| r.holders[b as usize] -= 1);
+    }
+
+    /// The buffer a TM takes under `policy`, among buffers held by fewer than `limit` TMs.
+    /// `most-rays` ranks buffers by their unclaimed rays, ties to the lowest id, and never
+    /// takes a fully claimed one; `round-robin` takes the first non-empty one after `cursor`
+    /// in id order, wrapping, and moves it.
+    pub(crate) fn pick(&self, policy: Policy, cursor: &mut Option<u32>) -> Option<u32> {
         match policy {
-            Policy::MostRays => {
-                let mut best: Option<(u64, u32)> = None;
-                for &(count, Reverse(b)) in self.by_count.iter().rev() {
-                    // No buffer further down can beat the best: unclaimed ≤ count.
-                    if best.is_some_and(|(score, _)| (count as u64) < score) {
-                        break;
-                    }
-                    let claimed = holders[b as usize] as u64 * tps as u64;
-                    let unclaimed = (count as u64).saturating_sub(claimed);
-                    if unclaimed > 0
-                        && free(b)
-                        && best.is_none_or(|(score, id)| {
-                            unclaimed > score || (unclaimed == score && b < id)
-                        })
-                    {
-                        best = Some((unclaimed, b));
-                    }
-                }
-                best.map(|(_, b)| b)
-            }
+            Policy::MostRays => self.by_unclaimed.last().map(|&(_, Reverse(b))| b),
             Policy::RoundRobin => {
                 let start = cursor.map_or(0, |c| c + 1);
                 let b = self
@@ -284,22 +320,10 @@ impl Ready {
                     .range(start..)
                     .chain(self.by_id.range(..start))
                     .copied()
-                    .find(|&b| free(b))?;
+                    .find(|&b| self.free(b))?;
                 *cursor = Some(b);
                 Some(b)
             }
-        }
-    }
-
-    pub(crate) fn update(&mut self, b: u32, old: u32, new: u32) {
-        if old > 0 {
-            self.by_count.remove(&(old, Reverse(b)));
-        }
-        if new > 0 {
-            self.by_count.insert((new, Reverse(b)));
-            self.by_id.insert(b);
-        } else {
-            self.by_id.remove(&b);
         }
     }
 }
@@ -316,7 +340,6 @@ struct Flow<'a> {
     last_of_leaf: Vec<bool>,
     stream: StreamMemory,
     ready: Ready,
-    holders: Vec<u32>,
     tm_treelet: Vec<Option<u32>>,
     tm_kind: Vec<Option<TreeletKind>>,
     rr_cursor: Option<u32>,
@@ -374,8 +397,7 @@ pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<Flow
         leaf_of_slot,
         last_of_leaf,
         stream,
-        ready: Ready::default(),
-        holders: vec![0; buffers as usize],
+        ready: Ready::new(buffers, tps, cfg.tms_per_buffer),
         tm_treelet: vec![None; tms],
         tm_kind: vec![None; tms],
         rr_cursor: None,
@@ -426,17 +448,15 @@ pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<Flow
 
 impl Flow<'_> {
     fn push(&mut self, b: u32, rec: &[u8; 48]) -> Result<(), FlowError> {
-        let old = self.stream.count(b);
         self.stream.push(b, rec)?;
-        self.ready.update(b, old, old + 1);
+        self.ready.update(b, self.stream.count(b));
         Ok(())
     }
 
     fn pop(&mut self, b: u32) -> Result<Option<[u8; 48]>, FlowError> {
-        let old = self.stream.count(b);
         let r = self.stream.pop(b)?;
         if r.is_some() {
-            self.ready.update(b, old, old - 1);
+            self.ready.update(b, self.stream.count(b));
         }
         Ok(r)
     }
@@ -577,20 +597,14 @@ impl Flow<'_> {
 
     /// A buffer for a TM by the policy, if any may be taken (see [`Ready::pick`]).
     fn pick(&mut self) -> Option<u32> {
-        self.ready.pick(
-            self.cfg.policy,
-            &self.holders,
-            self.cfg.tms_per_buffer,
-            self.tps,
-            &mut self.rr_cursor,
-        )
+        self.ready.pick(self.cfg.policy, &mut self.rr_cursor)
     }
 
     fn end_tenure(&mut self, tm: usize) {
         let Some(b) = self.tm_treelet[tm].take() else {
             return;
         };
-        self.holders[b as usize] -= 1;
+        self.ready.release(b);
         let distinct = |lines: &mut Vec<u64>| {
             lines.sort_unstable();
             lines.dedup();
@@ -626,7 +640,7 @@ impl Flow<'_> {
                         self.stats.tm_rounds_idle += 1;
                         continue;
                     };
-                    self.holders[b as usize] += 1;
+                    self.ready.claim(b);
                     self.tm_treelet[tm] = Some(b);
                     self.stats.treelet_switches += 1;
                     let kind = self.kind_of(b);
@@ -769,21 +783,25 @@ enum Cause {
 mod tests {
     use super::*;
 
-    /// Buffers with the given counts.
-    fn ready(counts: &[u32]) -> Ready {
-        let mut r = Ready::default();
-        for (b, &c) in counts.iter().enumerate() {
-            r.update(b as u32, 0, c);
+    /// Buffers with the given counts and holders, for TMs of 8 TPs, at most `limit` TMs each.
+    fn ready(counts: &[u32], holders: &[u32], limit: u32) -> Ready {
+        let mut r = Ready::new(counts.len() as u32, 8, limit);
+        for (b, (&c, &h)) in counts.iter().zip(holders).enumerate() {
+            r.update(b as u32, c);
+            for _ in 0..h {
+                r.claim(b as u32);
+            }
         }
         r
     }
 
     #[test]
     fn most_rays_takes_the_most_unclaimed_rays() {
-        let r = ready(&[5, 0, 40, 40, 12]);
+        let counts = [5, 0, 40, 40, 12];
         let mut cur = None;
-        let mut pick =
-            |holders: &[u32], limit| r.pick(Policy::MostRays, holders, limit, 8, &mut cur);
+        let mut pick = |holders: &[u32], limit| {
+            ready(&counts, holders, limit).pick(Policy::MostRays, &mut cur)
+        };
         // Fullest first, ties to the lowest id.
         assert_eq!(pick(&[0; 5], 0), Some(2));
         // Buffer 2 has a TM (8 rays claimed: 32 left), 3 none: 3 wins.
@@ -798,33 +816,38 @@ mod tests {
 
     #[test]
     fn round_robin_cycles_through_non_empty_buffers() {
-        let r = ready(&[3, 0, 1, 0, 7]);
+        let counts = [3, 0, 1, 0, 7];
+        let r = ready(&counts, &[0; 5], 0);
         let mut cur = None;
-        let free = [0u32; 5];
         let order: Vec<_> = (0..5)
-            .map(|_| r.pick(Policy::RoundRobin, &free, 0, 8, &mut cur))
+            .map(|_| r.pick(Policy::RoundRobin, &mut cur))
             .collect();
         assert_eq!(order, [Some(0), Some(2), Some(4), Some(0), Some(2)]);
         // Held buffers are skipped under a limit.
         let mut cur = Some(0);
-        assert_eq!(
-            r.pick(Policy::RoundRobin, &[0, 0, 1, 0, 0], 1, 8, &mut cur),
-            Some(4)
-        );
+        let r = ready(&counts, &[0, 0, 1, 0, 0], 1);
+        assert_eq!(r.pick(Policy::RoundRobin, &mut cur), Some(4));
         assert_eq!(cur, Some(4));
-        let empty = Ready::default();
-        assert_eq!(empty.pick(Policy::RoundRobin, &free, 0, 8, &mut cur), None);
+        let empty = Ready::new(5, 8, 0);
+        assert_eq!(empty.pick(Policy::RoundRobin, &mut cur), None);
     }
 
     #[test]
     fn updates_keep_both_orders() {
-        let mut r = ready(&[2, 2]);
-        r.update(0, 2, 0);
-        r.update(1, 2, 3);
+        let mut r = ready(&[2, 2], &[0, 0], 0);
+        r.update(0, 0);
+        r.update(1, 3);
         assert_eq!(r.by_id.iter().copied().collect::<Vec<_>>(), [1]);
         assert_eq!(
-            r.by_count.iter().copied().collect::<Vec<_>>(),
+            r.by_unclaimed.iter().copied().collect::<Vec<_>>(),
             [(3, Reverse(1))]
         );
+        // A claim of all its rays takes a buffer out of `most-rays`' reach; a release puts
+        // it back.
+        r.update(1, 8);
+        r.claim(1);
+        assert_eq!(r.pick(Policy::MostRays, &mut None), None);
+        r.release(1);
+        assert_eq!(r.pick(Policy::MostRays, &mut None), Some(1));
     }
 }

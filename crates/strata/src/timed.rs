@@ -163,13 +163,11 @@ pub struct StrataSource<'a> {
     frame: Frame<'a>,
     sp: &'a StrataProgram,
     cfg: StrataConfig,
-    tps_per_tm: u32,
     treelets: &'a Treelets,
     last_of_leaf: Vec<bool>,
     leaf_of_slot: Vec<u32>,
     stream: StreamMemory,
     ready: Ready,
-    holders: Vec<u32>,
     rr_cursor: Option<u32>,
     tms: Vec<Tm>,
     tps: Vec<Tp>,
@@ -271,12 +269,10 @@ impl<'a> StrataSource<'a> {
             frame,
             sp,
             cfg: cfg.clone(),
-            tps_per_tm: trax.tps_per_tm,
             treelets,
             last_of_leaf,
             leaf_of_slot,
-            ready: Ready::default(),
-            holders: vec![0; buffers as usize],
+            ready: Ready::new(buffers, trax.tps_per_tm, cfg.tms_per_buffer),
             rr_cursor: None,
             tms: vec![
                 Tm {
@@ -664,17 +660,11 @@ impl<'a> StrataSource<'a> {
                 self.facts.hold_waits += 1;
                 return Ok(poll);
             }
-            self.holders[b as usize] -= 1;
+            self.ready.release(b);
             self.tms[tm].treelet = None;
         }
         if self.tms[tm].treelet.is_none() {
-            let Some(b) = self.ready.pick(
-                self.cfg.policy,
-                &self.holders,
-                self.cfg.tms_per_buffer,
-                self.tps_per_tm,
-                &mut self.rr_cursor,
-            ) else {
+            let Some(b) = self.ready.pick(self.cfg.policy, &mut self.rr_cursor) else {
                 if self.fill_next >= self.n_paths && self.live_paths == 0 {
                     // Every path has retired: the frame is done.
                     self.tps[tp].halt = true;
@@ -701,7 +691,7 @@ impl<'a> StrataSource<'a> {
                 self.facts.reconfigurations += 1;
             }
             m.treelet = Some(b);
-            self.holders[b as usize] += 1;
+            self.ready.claim(b);
             self.facts.treelet_switches += 1;
         }
         let b = self.tms[tm].treelet.expect("a treelet");
@@ -712,13 +702,12 @@ impl<'a> StrataSource<'a> {
                 stall: Stall::Stream,
             });
         }
-        let old = self.stream.count(b);
         let rec = self
             .stream
             .pop(b)
             .map_err(FlowError::from)?
             .expect("the buffer holds a ray");
-        self.ready.update(b, old, old - 1);
+        self.ready.update(b, self.stream.count(b));
         self.tms[tm].holding += 1;
         let w = &mut self.tps[tp];
         w.held = true;
@@ -829,11 +818,10 @@ impl Source for StrataSource<'_> {
                 };
                 assert!(self.bank_free(bank, t, 1), "the port was free");
                 let (b, rec) = self.tps[tp].outgoing.take().expect("a ray to push");
-                let old = self.stream.count(b);
                 self.stream
                     .push_in(b, &rec, bank)
                     .expect("one ray per path slot: the stream memory never overflows");
-                self.ready.update(b, old, old + 1);
+                self.ready.update(b, self.stream.count(b));
                 SourceAccess::Done { ready: t + 1 }
             }
             (_, Mem::Stream(op @ (StreamOp::PathRead | StreamOp::PathWrite))) => {
