@@ -838,6 +838,32 @@ impl Source for StrataSource<'_> {
         Ok(out)
     }
 
+    fn still_refused(
+        &self,
+        _tp: usize,
+        tm: usize,
+        _class: Class,
+        mem: Mem,
+        t: u64,
+    ) -> Option<Stall> {
+        // A pop is refused, changing nothing but counters, while its TM's buffer holds rays
+        // and the bank of the buffer's head has no port left this cycle (`pop`). Only an
+        // access of the same TM can change that within the cycle's TM-ordered offers: a push
+        // moves the head, a pop empties the buffer or moves the head, a switch changes the
+        // buffer. (The TP's `held` was released at its first refusal.)
+        if mem != Mem::Stream(StreamOp::Pop) {
+            return None;
+        }
+        let b = self.tms[tm].treelet?;
+        let bank = self.stream.pop_bank(b)?;
+        (!self.port_free(bank, t)).then_some(Stall::Stream)
+    }
+
+    fn refused_again(&mut self, _tp: usize, _class: Class, _mem: Mem, n: u64) {
+        self.facts.bank_conflicts += n;
+        self.facts.bank_conflicts_by_op[0] += n;
+    }
+
     fn extra_energy(&self, cfg: &TraxConfig, issue: &IssueStats) -> (f64, f64) {
         let f = self.facts();
         let u = &cfg.units;

@@ -285,25 +285,173 @@ impl AtomicQueue {
     }
 }
 
+/// A parked TP: its priority key and index, the cycle of its last charged refusal, and the
+/// stall its refusals count as.
+#[derive(Clone, Copy, Debug)]
+struct ParkedTp {
+    key: u64,
+    tp: u32,
+    since: u64,
+    stall: Stall,
+}
+
+/// TPs whose access the source refused and would go on refusing, changing nothing but
+/// counters, until an access of their TM is accepted (`Source::still_refused`: STRaTA's pops
+/// of a buffer whose head bank has no port left). The reference offers each of them every
+/// cycle. Here they leave the wheel: each cycle, at their places in the TM's run of offers
+/// (first-round offers go TM by TM, by key), the first is asked whether it is still refused;
+/// if so, so are the ones after it up to the TM's next accepted access, and they are skipped.
+/// Skipped refusals are charged when the TP is offered again, or when the run stops.
+#[derive(Debug, Default)]
+struct Parked {
+    /// Per TM: parked TPs, ascending by (key, TP).
+    by_tm: Vec<Vec<ParkedTp>>,
+    /// TPs parked in all.
+    n: usize,
+    /// Scratch: the ones that stay parked through a TM's run.
+    keep: Vec<ParkedTp>,
+    /// Scratch: TPs offered again and accepted this cycle (they resume with the batch).
+    woken: Vec<u32>,
+}
+
+impl Parked {
+    fn new(tms: usize) -> Self {
+        Parked {
+            by_tm: vec![Vec::new(); tms],
+            ..Parked::default()
+        }
+    }
+
+    fn park(&mut self, tm: usize, key: u64, tp: usize, t: u64, stall: Stall) {
+        self.by_tm[tm].push(ParkedTp {
+            key,
+            tp: tp as u32,
+            since: t,
+            stall,
+        });
+        self.n += 1;
+    }
+
+    /// Charge TP `p.tp`'s refusals skipped from its last charged one up to cycle `last`.
+    fn charge<S: Source>(chip: &mut Chip<'_, S>, p: &ParkedTp, last: u64) {
+        let n = last - p.since;
+        if n > 0 {
+            let tp = p.tp as usize;
+            chip.issue.stall[p.stall as usize] += n;
+            let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
+            let d = chip.dec[i];
+            chip.src.refused_again(tp, d.class, d.mem, n);
+        }
+    }
+
+    /// The run stops after cycle `last`: charge the parked TPs' refusals up to it.
+    fn flush<S: Source>(&mut self, chip: &mut Chip<'_, S>, last: u64) {
+        for list in &mut self.by_tm {
+            for p in list.drain(..) {
+                Parked::charge(chip, &p, last);
+            }
+        }
+        self.n = 0;
+    }
+}
+
+/// The offers of cycle `t` of TM `tm` (`offers`, by key) merged with its parked TPs.
+#[allow(clippy::too_many_arguments)]
+fn tm_run<S: Source>(
+    chip: &mut Chip<'_, S>,
+    wheel: &mut Wheel,
+    atomics: &mut AtomicQueue,
+    parked: &mut Parked,
+    tm: usize,
+    offers: &[(u32, u64, u32)],
+    t: u64,
+) -> Result<(), ChipError> {
+    let list = std::mem::take(&mut parked.by_tm[tm]);
+    let mut keep = std::mem::take(&mut parked.keep);
+    keep.clear();
+    let (mut pi, mut fi) = (0, 0);
+    // Whether the parked TP at hand is known to be refused: it offers what the last one
+    // asked offered, and no access of this TM has been offered since.
+    let mut refused_now = false;
+    let mut asked = None;
+    loop {
+        let take_offer = match (list.get(pi), offers.get(fi)) {
+            (None, None) => break,
+            (None, Some(_)) => true,
+            (Some(_), None) => false,
+            (Some(p), Some(&(_, key, tp))) => (key, tp) < (p.key, p.tp),
+        };
+        if take_offer {
+            let tp = offers[fi].2 as usize;
+            fi += 1;
+            offer(chip, wheel, atomics, parked, tp, t)?;
+            refused_now = false;
+            continue;
+        }
+        let p = list[pi];
+        pi += 1;
+        let tp = p.tp as usize;
+        let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
+        let d = chip.dec[i];
+        if !refused_now || asked != Some((d.class, d.mem)) {
+            refused_now = chip.src.still_refused(tp, tm, d.class, d.mem, t).is_some();
+            asked = Some((d.class, d.mem));
+        }
+        if refused_now {
+            keep.push(p);
+            continue;
+        }
+        // Offered again: charge the refusals skipped before this cycle.
+        parked.n -= 1;
+        Parked::charge(chip, &p, t - 1);
+        chip.cores[tp].access_at = t;
+        match chip.access(tp, i, t)? {
+            Offered::Accepted => parked.woken.push(p.tp),
+            Offered::Busy { retry_at } => refused(chip, wheel, atomics, parked, tp, i, t, retry_at),
+        }
+    }
+    // Those parked this cycle join the ones still parked, in (key, TP) order.
+    keep.append(&mut parked.by_tm[tm]);
+    keep.sort_unstable_by_key(|p| (p.key, p.tp));
+    parked.by_tm[tm] = keep;
+    parked.keep = list;
+    Ok(())
+}
+
 /// TP `tp`'s access (instruction `i`) was refused at `t`: it offers again at `retry_at`, or
 /// waits for the atomic unit.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn refused<S: Source>(
     chip: &mut Chip<'_, S>,
     wheel: &mut Wheel,
     atomics: &mut AtomicQueue,
+    parked: &mut Parked,
     tp: usize,
     i: usize,
     t: u64,
     retry_at: u64,
 ) {
-    if chip.dec[i].class == Class::Atomic {
+    let d = chip.dec[i];
+    if d.class == Class::Atomic {
         debug_assert_eq!(retry_at, t + 1);
         atomics.park(chip, tp, t);
-    } else {
-        chip.cores[tp].access_at = retry_at;
-        wheel.add(retry_at, tp);
+        return;
     }
+    if retry_at == t + 1
+        && matches!(
+            d.class,
+            Class::TriTest | Class::StreamLoad | Class::StreamStore
+        )
+    {
+        let tm = chip.cores[tp].tm as usize;
+        if let Some(stall) = chip.src.still_refused(tp, tm, d.class, d.mem, t) {
+            parked.park(tm, chip.cores[tp].key, tp, t, stall);
+            return;
+        }
+    }
+    chip.cores[tp].access_at = retry_at;
+    wheel.add(retry_at, tp);
 }
 
 /// Progress callback: called now and then with the chip and the current cycle.
@@ -333,12 +481,18 @@ pub fn run<S: Source>(
     let mut last = 0;
     let mut ticks = 0u32;
     let mut atomics = AtomicQueue::default();
+    let mut parked = Parked::new(chip.cfg.tms as usize);
     loop {
         let t_tp = wheel.next();
         let t_mem = chip.hier.next_event();
-        let t = match (t_tp, t_mem) {
-            (None, None) => break,
-            (a, b) => a.unwrap_or(u64::MAX).min(b.unwrap_or(u64::MAX)),
+        // Parked TPs are asked again every cycle.
+        let t_parked = (parked.n > 0).then_some(last + 1);
+        let t = match (t_tp, t_mem, t_parked) {
+            (None, None, None) => break,
+            (a, b, c) => a
+                .unwrap_or(u64::MAX)
+                .min(b.unwrap_or(u64::MAX))
+                .min(c.unwrap_or(u64::MAX)),
         };
         if limit.is_some_and(|l| t >= l) {
             break;
@@ -377,17 +531,50 @@ pub fn run<S: Source>(
         // The batch is in TP order, so TM by TM: order each TM's run by key (a few TPs:
         // insertion sort).
         insertion_sort(&mut offers);
-        for (k, &(_, _, tp)) in offers.iter().enumerate() {
-            if let Some(&(_, _, ahead)) = offers.get(k + AHEAD) {
-                prefetch_tp(chip, ahead as usize);
+        if parked.n == 0 {
+            for (k, &(_, _, tp)) in offers.iter().enumerate() {
+                if let Some(&(_, _, ahead)) = offers.get(k + AHEAD) {
+                    prefetch_tp(chip, ahead as usize);
+                }
+                offer(chip, &mut wheel, &mut atomics, &mut parked, tp as usize, t)?;
             }
-            offer(chip, &mut wheel, &mut atomics, tp as usize, t)?;
+        } else {
+            // TM by TM, each TM's offers merged with its parked TPs.
+            parked.woken.clear();
+            let mut k = 0;
+            for tm in 0..parked.by_tm.len() {
+                let start = k;
+                while k < offers.len() && offers[k].0 as usize == tm {
+                    k += 1;
+                }
+                if parked.by_tm[tm].is_empty() {
+                    for &(_, _, tp) in &offers[start..k] {
+                        offer(chip, &mut wheel, &mut atomics, &mut parked, tp as usize, t)?;
+                    }
+                } else {
+                    let run = &offers[start..k];
+                    tm_run(chip, &mut wheel, &mut atomics, &mut parked, tm, run, t)?;
+                }
+            }
+            debug_assert_eq!(k, offers.len());
+            if !parked.woken.is_empty() {
+                batch.extend_from_slice(&parked.woken);
+                batch.sort_unstable();
+            }
         }
         for (k, &tp) in batch.iter().enumerate() {
             if let Some(&ahead) = batch.get(k + AHEAD) {
                 prefetch_tp(chip, ahead as usize);
             }
-            resume(chip, &mut cal, &mut wheel, &mut atomics, tp as usize, t)?;
+            resume(
+                chip,
+                &mut cal,
+                &mut wheel,
+                &mut atomics,
+                &mut parked,
+                tp as usize,
+                t,
+            )?;
         }
         atomics.wake(chip, &mut wheel, t);
         last = t;
@@ -395,12 +582,13 @@ pub fn run<S: Source>(
         if ticks & 0x3FFF == 0 {
             progress(t, chip.pixels_done, chip.rays_done);
         }
-        if chip.live == 0 && t_tp.is_none() && wheel.next().is_none() {
+        if chip.live == 0 && t_tp.is_none() && wheel.next().is_none() && parked.n == 0 {
             // Every TP has halted; what remains in the memory system is drained by the caller.
             break;
         }
     }
     atomics.flush(chip, last);
+    parked.flush(chip, last);
     chip.completions = done;
     Ok(last)
 }
@@ -443,13 +631,14 @@ fn offer<S: Source>(
     chip: &mut Chip<'_, S>,
     wheel: &mut Wheel,
     atomics: &mut AtomicQueue,
+    parked: &mut Parked,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
     debug_assert_eq!(chip.cores[tp].access_at, t);
     let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
     if let Offered::Busy { retry_at } = chip.access(tp, i, t)? {
-        refused(chip, wheel, atomics, tp, i, t, retry_at);
+        refused(chip, wheel, atomics, parked, tp, i, t, retry_at);
     }
     Ok(())
 }
@@ -461,6 +650,7 @@ fn resume<S: Source>(
     cal: &mut Calendar,
     wheel: &mut Wheel,
     atomics: &mut AtomicQueue,
+    parked: &mut Parked,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
@@ -473,7 +663,7 @@ fn resume<S: Source>(
             core.wait = Wait::Ready;
         }
     }
-    run_ahead(chip, cal, wheel, atomics, tp, t)
+    run_ahead(chip, cal, wheel, atomics, parked, tp, t)
 }
 
 /// Book TP `tp`'s instructions from its current one, with priority key `t`, up to its next
@@ -484,6 +674,7 @@ fn run_ahead<S: Source>(
     cal: &mut Calendar,
     wheel: &mut Wheel,
     atomics: &mut AtomicQueue,
+    parked: &mut Parked,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
@@ -561,7 +752,7 @@ fn run_ahead<S: Source>(
                 chip.cores[tp].key = t;
             }
             Offered::Busy { retry_at } => {
-                refused(chip, wheel, atomics, tp, i, t, retry_at);
+                refused(chip, wheel, atomics, parked, tp, i, t, retry_at);
                 return Ok(());
             }
         }

@@ -54,6 +54,23 @@ pub trait Source {
         t: u64,
         caps: &mut [u8; UNIT_CLASSES],
     ) -> Result<SourceAccess, ChipError>;
+    /// TP `tp` of TM `tm` had its access (`class`, `mem`) refused at cycle `t` with a retry
+    /// at `t + 1`. `Some(stall)` if offering it again now would be refused once more,
+    /// changing nothing but counters (its stall of `stall`, and whatever
+    /// [`Source::refused_again`] charges), and would stay so, within cycle `t`, until an
+    /// access of TM `tm` is accepted. The fast engine then stops offering it each cycle: it
+    /// asks again at the TP's place in each later cycle's order and charges the refusals it
+    /// skipped. The answer may depend on `tm`, `class`, `mem`, `t` and the shared state, not
+    /// on which of the TM's TPs asks. `None` (the default): it retries every cycle.
+    fn still_refused(&self, tp: usize, tm: usize, class: Class, mem: Mem, t: u64) -> Option<Stall> {
+        let _ = (tp, tm, class, mem, t);
+        None
+    }
+    /// Charge `n` refusals of TP `tp`'s access that the fast engine skipped (see
+    /// [`Source::still_refused`]).
+    fn refused_again(&mut self, tp: usize, class: Class, mem: Mem, n: u64) {
+        let _ = (tp, class, mem, n);
+    }
     /// Energy beyond the chip's own events, in joules: the stream memory's, and the
     /// operations performed inside fused pipelines.
     fn extra_energy(
