@@ -138,4 +138,21 @@ fn bench_sim_runs_strata_and_bad_settings_name_their_key() {
         e.contains("trace.traversal") && e.contains("bit-stack"),
         "{e}"
     );
+    // The baseline's L2 size is not STRaTA's: changing it is an error, not silently ignored.
+    let e = fails(
+        rtsim()
+            .args([
+                "simulate",
+                "--arch",
+                "strata",
+                "--set",
+                "arch.trax.l2.size_bytes=1048576",
+            ])
+            .arg("--out")
+            .arg(dir.path()),
+    );
+    assert!(
+        e.contains("arch.trax.l2.size_bytes") && e.contains("arch.strata.l2_bytes"),
+        "{e}"
+    );
 }

@@ -153,6 +153,20 @@ impl Validate for RunConfig {
                 &self.memory,
                 self.arch.trax.l1.size_bytes,
             )?;
+            let baseline_l2 = rtsim_trax::TraxConfig::default().l2.size_bytes;
+            if self.arch.strata.streaming && self.arch.trax.l2.size_bytes != baseline_l2 {
+                // The L2 STRaTA runs with is `arch.strata.l2_bytes`: a changed baseline L2
+                // would otherwise be ignored without a word.
+                return Err(ConfigError::key(
+                    "arch.trax.l2.size_bytes",
+                    format!(
+                        "= {} has no effect with arch.strata.streaming = true: STRaTA's L2 is \
+                         arch.strata.l2_bytes (the rest of the baseline's {} L2 became the \
+                         stream memory, STRaTA §5.1); set arch.strata.l2_bytes instead",
+                        self.arch.trax.l2.size_bytes, baseline_l2
+                    ),
+                ));
+            }
         }
         let (w, h, _) = self.workload.resolved_size();
         self.sim.validate_for(w, h)?;
