@@ -418,8 +418,9 @@ fn tm_run<S: Source>(
     Ok(())
 }
 
-/// TP `tp`'s access (instruction `i`) was refused at `t`: it offers again at `retry_at`, or
-/// waits for the atomic unit.
+/// TP `tp`'s access (instruction `i`) was refused at `t`: it waits for the atomic unit
+/// ([`AtomicQueue`]), is parked if the source says the refusal repeats ([`Parked`]), or offers
+/// again at `retry_at`.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn refused<S: Source>(
