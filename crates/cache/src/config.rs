@@ -90,6 +90,14 @@ pub struct CacheLevel {
     /// 1..=4096; a full write buffer refuses writes (back-pressure). L1 default 8, L2 default 64
     /// (assumed).
     pub write_buffer: u32,
+    /// Inner caches (an L2) only: a read from a child that finds an earlier read of the same
+    /// line still waiting for its bank joins it, and the one lookup answers both (request
+    /// combining in the bank's input queue). Many TMs that start the same treelet at once ask
+    /// the L2 for the same lines; without combining each asks separately and they queue on one
+    /// bank. Default false (assumed: the papers do not say, and SimTRaX looks up every access);
+    /// joined reads are counted in `combined`. Ignored at L1s (their misses merge in MSHRs).
+    #[serde(default)]
+    pub combine_reads: bool,
 }
 
 impl CacheLevel {
@@ -107,6 +115,7 @@ impl CacheLevel {
             hit_latency: 1,
             mshrs: 32,
             write_buffer: 8,
+            combine_reads: false,
         }
     }
 

@@ -30,6 +30,13 @@ pub struct CacheStats {
     /// Timed: accesses that found their bank busy this cycle (each refused or delayed attempt
     /// counts once).
     pub bank_conflicts: u64,
+    /// Timed, inner caches: cycles each access from a child waited for its bank (0 when the
+    /// bank was free), so queueing at the banks shows apart from hit and miss latency.
+    pub bank_wait: Histogram,
+    /// Timed, inner caches with `combine_reads`: reads that joined an earlier read of the same
+    /// line waiting for its bank (served by that lookup: one bank cycle and one array access
+    /// for all of them). Counted in `reads` and the hit or miss counts too.
+    pub combined: u64,
     /// Timed: misses to a line already in flight, merged into its MSHR.
     pub mshr_merges: u64,
     /// Timed: misses refused or delayed because every MSHR was busy.

@@ -26,12 +26,16 @@
 //!   `(address / bank_bytes) mod banks` — by default `bank_bytes` is the line, so the bank is
 //!   the address bits just above the line offset — and each bank does one lookup per cycle. At an L1 a second access to a busy bank is refused
 //!   (`Busy`, retry next cycle); at an inner cache (an L2) it waits for the bank's next free
-//!   cycle. Each such conflict is counted once per attempt.
+//!   cycle (the wait is recorded in `bank_wait`). Each such conflict is counted once per
+//!   attempt. With `combine_reads`, a read arriving at an inner cache while an earlier read of
+//!   the same line waits for its bank joins it: that one lookup answers both (`combined`).
 //! - **Hits** are ready `hit_latency` cycles after the lookup.
 //! - **Misses** allocate an MSHR at lookup; the request reaches the next level `hit_latency`
 //!   cycles later (the tag check). A miss to a line already in flight merges into its MSHR
 //!   (counted) and completes with it. With every MSHR busy an L1 refuses the access and an inner
-//!   cache queues it until an MSHR frees (each try counted as an MSHR-full stall). When the line
+//!   cache queues it until an MSHR frees (each try counted as an MSHR-full stall); queued
+//!   accesses are re-examined first-in first-out, stopping at the first refused again, without
+//!   a second bank lookup. When the line
 //!   arrives it is installed (evicting by the replacement policy) and every merged access
 //!   completes in that cycle; an inner cache forwards the line to the waiting children in the
 //!   same cycle.
@@ -57,7 +61,7 @@ use rtsim_config::ConfigError;
 use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
 use rtsim_sim::{Component, EventError, EventQueue};
 use std::cell::Cell;
-use std::collections::VecDeque;
+use std::collections::{HashMap, VecDeque};
 
 /// One access by a requester.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -148,9 +152,21 @@ struct Op {
     child: usize,
 }
 
+/// Where an access to an inner cache is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    /// Arriving from the child: it asks its bank for a cycle.
+    Arrive,
+    /// At the cycle its bank gave it, after waiting.
+    Lookup,
+    /// Offered again from the queue of accesses waiting for an MSHR or the write buffer
+    /// (its bank was already used), or a read that joined another's lookup.
+    Replay,
+}
+
 #[derive(Clone, Copy, Debug)]
 enum Ev {
-    Access { node: usize, op: Op, banked: bool },
+    Access { node: usize, op: Op, stage: Stage },
     Fill { node: usize, addr: u64 },
     MemSend { node: usize, addr: u64, op: MemOp },
     Retry { node: usize },
@@ -222,6 +238,11 @@ struct Node {
     retrying: VecDeque<Op>,
     retry_pending: bool,
     mem_tag: u32,
+    /// `combine_reads`: reads from children combine while they wait for a bank.
+    combine: bool,
+    /// Reads waiting for their bank, by line: the cycle the bank gave them, and the children
+    /// whose reads of the line joined (`combine_reads` only).
+    waiting: HashMap<u64, (u64, Vec<usize>)>,
 }
 
 impl Node {
@@ -344,6 +365,8 @@ impl<M: MemoryPort> Hierarchy<M> {
                     retrying: VecDeque::new(),
                     retry_pending: false,
                     mem_tag,
+                    combine: c.combine_reads,
+                    waiting: HashMap::new(),
                 }
             })
             .collect();
@@ -534,7 +557,7 @@ impl<M: MemoryPort> Hierarchy<M> {
                         write: op == MemOp::Write,
                         child: n,
                     },
-                    banked: false,
+                    stage: Stage::Arrive,
                 },
             ),
             Parent::Memory => self.push(at, Ev::MemSend { node: n, addr, op }),
@@ -581,19 +604,28 @@ impl<M: MemoryPort> Hierarchy<M> {
 
     fn handle(&mut self, t: u64, ev: Ev) -> Result<(), HierarchyError> {
         match ev {
-            Ev::Access { node, op, banked } => self.inner_access(t, node, op, banked),
+            Ev::Access { node, op, stage } => self.inner_access(t, node, op, stage),
             Ev::Fill { node, addr } => self.fill(t, node, addr),
             Ev::MemSend { node, addr, op } => self.mem_send(t, node, addr, op),
             Ev::Retry { node } => {
                 self.nodes[node].retry_pending = false;
-                // The accesses are offered again in order; those refused again queue up anew.
-                // The two queues trade their storage so that neither grows from empty.
+                // The queued accesses are offered again in arrival order until one is refused
+                // again: a first-in first-out miss queue beside the banks. A queued access had
+                // its bank's lookup already and is re-examined without another bank cycle
+                // (offering every queued access again through the banks at each freed MSHR
+                // would delay the hits behind them for nothing). The two queues trade their
+                // storage so that neither grows from empty.
                 let n = &mut self.nodes[node];
                 let mut ops = std::mem::replace(&mut n.blocked, std::mem::take(&mut n.retrying));
                 while let Some(op) = ops.pop_front() {
-                    self.inner_access(t, node, op, false)?;
+                    self.inner_access(t, node, op, Stage::Replay)?;
+                    if !self.nodes[node].blocked.is_empty() {
+                        break;
+                    }
                 }
-                self.nodes[node].retrying = ops;
+                let n = &mut self.nodes[node];
+                n.blocked.extend(ops.drain(..));
+                n.retrying = ops;
                 Ok(())
             }
         }
@@ -605,25 +637,57 @@ impl<M: MemoryPort> Hierarchy<M> {
         t: u64,
         n: usize,
         op: Op,
-        banked: bool,
+        stage: Stage,
     ) -> Result<(), HierarchyError> {
         let node = &mut self.nodes[n];
-        if !banked {
+        let combine = node.combine && !op.write;
+        if stage == Stage::Arrive {
+            if combine
+                && let Some((start, joined)) = node.waiting.get_mut(&node.cache.line_of(op.addr))
+            {
+                // An earlier read of the line waits for its bank: this one joins its lookup.
+                joined.push(op.child);
+                let wait = *start - t;
+                node.cache.stats.bank_wait.record(wait);
+                node.cache.stats.combined += 1;
+                return Ok(());
+            }
             let b = node.bank(op.addr);
             let start = node.bank_free[b].max(t);
             node.bank_free[b] = start + 1;
+            node.cache.stats.bank_wait.record(start - t);
             if start > t {
                 node.cache.stats.bank_conflicts += 1;
+                if combine {
+                    let line = node.line(op.addr);
+                    node.waiting.insert(line, (start, Vec::new()));
+                }
                 return self.push(
                     start,
                     Ev::Access {
                         node: n,
                         op,
-                        banked: true,
+                        stage: Stage::Lookup,
                     },
                 );
             }
         }
+        self.perform(t, n, op)?;
+        if stage == Stage::Lookup && combine {
+            let node = &mut self.nodes[n];
+            let line = node.line(op.addr);
+            if let Some((_, joined)) = node.waiting.remove(&line) {
+                for child in joined {
+                    self.perform(t, n, Op { child, ..op })?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Access `op` at inner cache `n` once its bank has looked it up.
+    fn perform(&mut self, t: u64, n: usize, op: Op) -> Result<(), HierarchyError> {
+        let node = &mut self.nodes[n];
         let lat = node.latency;
         let mem_op = if op.write { MemOp::Write } else { MemOp::Read };
         if op.write && !node.write_back {

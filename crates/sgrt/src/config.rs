@@ -242,6 +242,7 @@ fn read_only_level() -> CacheLevel {
         hit_latency: 1,
         mshrs: 16,
         write_buffer: 4,
+        combine_reads: false,
     }
 }
 

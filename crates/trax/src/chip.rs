@@ -611,7 +611,8 @@ impl<S: Source> Chip<'_, S> {
             &self.issue,
             &Events {
                 l1_accesses: l1.accesses(),
-                l2_accesses: l2.accesses(),
+                // Reads that joined another's lookup (`combine_reads`) share its array access.
+                l2_accesses: l2.accesses() - l2.combined,
                 dram_j: dram.energy.total_j,
                 seconds,
                 stream_j,
