@@ -83,8 +83,8 @@ pub struct CacheLevel {
     /// Miss status holding registers: lines in flight at once, 1..=4096. A miss to a line
     /// already in flight merges into its MSHR; a miss with all MSHRs busy is refused
     /// (back-pressure). L1 default 32 (assumed: one per TP of a TM, which stalls on its own
-    /// miss, so a TM's misses never wait for an MSHR); L2 default 256 (assumed: enough to keep
-    /// 16 DRAM channels' read queues busy).
+    /// miss, so a TM's misses never wait for an MSHR); L2 default 4096 (SimTRaX's L2 has no
+    /// limit, only the DRAM's read queues refuse; 4096 is more than `gddr5-trax`'s 16 × 80).
     pub mshrs: u32,
     /// Writes (write-throughs and write-backs) waiting for the next level to accept them,
     /// 1..=4096; a full write buffer refuses writes (back-pressure). L1 default 8, L2 default 64
@@ -125,7 +125,11 @@ impl CacheLevel {
             size_bytes: 4 * 1024 * 1024,
             banks: 16,
             hit_latency: 3,
-            mshrs: 256,
+            // SimTRaX's L2 has no MSHR limit: a miss joins a line already coming (its pending
+            // list is unbounded) or goes to USIMM, whose full read queue refuses it
+            // (`sim/L2Cache.cc`). The range's top, 4096, exceeds the 16 × 80 read-queue
+            // entries of `gddr5-trax`, so as there the DRAM's queues bound the reads in flight.
+            mshrs: 4096,
             write_buffer: 64,
             ..Self::trax_l1()
         }

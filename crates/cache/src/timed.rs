@@ -62,6 +62,7 @@ use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
 use rtsim_sim::{Component, EventError, EventQueue};
 use std::cell::Cell;
 use std::collections::{HashMap, VecDeque};
+use std::hash::{BuildHasherDefault, Hasher};
 
 /// One access by a requester.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -172,23 +173,60 @@ enum Ev {
     Retry { node: usize },
 }
 
-/// The line each MSHR is fetching (`NONE`: the MSHR is free), by MSHR: a cache has a few
-/// dozen MSHRs at most, so a scan finds a line sooner than a map would. `filter` has bit
-/// `line mod 64` set iff a line in flight has that residue (`count` of them), so most lines
-/// that are not in flight (an inner cache asks for every access it refuses) are answered
-/// without the scan.
+/// The MSHR fetching each line in flight. `filter` has bit `line mod 64` set iff a line in
+/// flight has that residue (`count` of them), so most lines that are not in flight (an inner
+/// cache asks for every access it looks up) are answered at once. Past that, a cache of a few
+/// dozen MSHRs scans one line per MSHR (`NONE`: free), sooner than a map would answer; a cache
+/// of more (an L2 with thousands) keeps a map.
 #[derive(Clone, Debug)]
 struct InFlight {
+    /// By MSHR, when there are at most `SCAN_MAX`; else empty.
     lines: Vec<u64>,
+    /// Line → MSHR, when there are more than `SCAN_MAX`.
+    map: LineMap<usize>,
+    scan: bool,
     filter: u64,
     count: [u16; 64],
 }
 
+/// A multiplicative hash for line numbers (Fibonacci hashing): the map's keys are trusted
+/// simulator state, so a keyed hash buys nothing and costs a lot on the hot path.
+#[derive(Clone, Copy, Debug, Default)]
+struct LineHasher(u64);
+
+impl Hasher for LineHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ u64::from(b)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0 ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+type LineMap<V> = HashMap<u64, V, BuildHasherDefault<LineHasher>>;
+
 impl InFlight {
     const NONE: u64 = u64::MAX;
+    const SCAN_MAX: usize = 64;
     fn new(mshrs: usize) -> Self {
+        let scan = mshrs <= Self::SCAN_MAX;
         InFlight {
-            lines: vec![Self::NONE; mshrs],
+            lines: if scan {
+                vec![Self::NONE; mshrs]
+            } else {
+                Vec::new()
+            },
+            map: if scan {
+                LineMap::default()
+            } else {
+                LineMap::with_capacity_and_hasher(mshrs, Default::default())
+            },
+            scan,
             filter: 0,
             count: [0; 64],
         }
@@ -199,17 +237,30 @@ impl InFlight {
         if self.filter & (1 << (line & 63)) == 0 {
             return None;
         }
-        self.lines.iter().position(|&l| l == line)
+        if self.scan {
+            self.lines.iter().position(|&l| l == line)
+        } else {
+            self.map.get(&line).copied()
+        }
     }
     fn insert(&mut self, line: u64, mshr: usize) {
         debug_assert!(line != Self::NONE && self.get(line).is_none());
-        self.lines[mshr] = line;
+        if self.scan {
+            self.lines[mshr] = line;
+        } else {
+            self.map.insert(line, mshr);
+        }
         self.count[(line & 63) as usize] += 1;
         self.filter |= 1 << (line & 63);
     }
     fn remove(&mut self, line: u64) -> Option<usize> {
-        let i = self.get(line)?;
-        self.lines[i] = Self::NONE;
+        let i = if self.scan {
+            let i = self.get(line)?;
+            self.lines[i] = Self::NONE;
+            i
+        } else {
+            self.map.remove(&line)?
+        };
         let r = (line & 63) as usize;
         self.count[r] -= 1;
         if self.count[r] == 0 {
@@ -242,7 +293,7 @@ struct Node {
     combine: bool,
     /// Reads waiting for their bank, by line: the cycle the bank gave them, and the children
     /// whose reads of the line joined (`combine_reads` only).
-    waiting: HashMap<u64, (u64, Vec<usize>)>,
+    waiting: LineMap<(u64, Vec<usize>)>,
 }
 
 impl Node {
@@ -366,7 +417,7 @@ impl<M: MemoryPort> Hierarchy<M> {
                     retry_pending: false,
                     mem_tag,
                     combine: c.combine_reads,
-                    waiting: HashMap::new(),
+                    waiting: LineMap::default(),
                 }
             })
             .collect();
