@@ -135,6 +135,26 @@ pub enum RowCheck {
     Strict,
 }
 
+/// What becomes of the subtrees left on a full node treelet's frontier
+/// (`memory.treelet_fringe`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Fringe {
+    /// Each leftover frontier pair roots a treelet of its own, grown greedily to the budget
+    /// (Aila & Karras 2010 as written); most of them are small subtrees, so most treelets hold
+    /// a few nodes (Sibenik: 3,170 node treelets filled to 4.5 % on average).
+    Separate,
+    /// Leftover pairs whose whole subtree fits the budget are packed, whole, into shared
+    /// treelets (next fit in node-index order, per full treelet); larger ones grow as before.
+    /// Treelets then come close to the budget (Sibenik: 189 filled to 76 %), as STRaTA §3.1
+    /// has them: "we assign treelets to be exactly the size of an L1 cache" (default).
+    Packed,
+}
+
+impl Fringe {
+    pub const NAMES: [&'static str; 2] = ["separate", "packed"];
+}
+
 /// Node treelet budget by default: the TRaX L1 data cache, 16 KB per TM (STRaTA paper §3.1:
 /// "we assign treelets to be exactly the size of an L1 cache"; Table 2 / DESIGN.md §3).
 pub const TREELET_BYTES_DEFAULT: u64 = 16 * 1024;
@@ -226,6 +246,9 @@ pub struct MemoryLayoutConfig {
     /// about 11× for Sibenik). Either way no treelet touches more rows than it needs.
     /// Default true.
     pub treelet_packing: bool,
+    /// `packed` (default) or `separate`: whether the small subtrees left on a full treelet's
+    /// frontier share treelets or each make one (see [`Fringe`]).
+    pub treelet_fringe: Fringe,
     /// In-flight path slots in the spilled path state region. Default: unset, one per pixel of
     /// the workload image (a software renderer's count); a STRaTA chip sets its stream
     /// memory's ray capacity. Range 1..=67108864.
@@ -249,6 +272,7 @@ impl Default for MemoryLayoutConfig {
             treelet_bytes: TREELET_BYTES_DEFAULT,
             treelet_row_check: RowCheck::Warn,
             treelet_packing: true,
+            treelet_fringe: Fringe::Packed,
             path_slots: None,
             path_state_bytes: PATH_STATE_BYTES_DEFAULT,
         }

@@ -31,7 +31,7 @@
 //! ends a pair slot, as in the linear layout); inside a triangle treelet, in slot order.
 //! [`check_rows`] compares each treelet's DRAM rows with what its size needs.
 
-use crate::config::{MemoryLayoutConfig, RowCheck};
+use crate::config::{Fringe, MemoryLayoutConfig, RowCheck};
 use crate::flat::Bvh;
 use rtsim_config::{ConfigError, Validate};
 use serde::Serialize;
@@ -64,7 +64,9 @@ pub struct TreeletInfo {
     pub kind: TreeletKind,
     /// Node treelets: the node the treelet is entered at, node 0 for the top treelet, else
     /// the left child of the entry sibling pair (both children are in the treelet, their
-    /// parent in another). `None` for triangle treelets.
+    /// parent in another); a treelet of packed fringe subtrees (`memory.treelet_fringe =
+    /// "packed"`) has one entry pair per subtree and names the first. `None` for triangle
+    /// treelets.
     pub root: Option<u32>,
     /// Records held: nodes or triangle slots.
     pub records: u32,
@@ -207,6 +209,27 @@ impl Ord for Frontier {
     }
 }
 
+/// Nodes in each node's subtree, itself included (children are found through `index`, so
+/// no order of the node array is assumed).
+fn subtree_sizes(bvh: &Bvh) -> Vec<u32> {
+    let mut size = vec![0u32; bvh.nodes.len()];
+    // Post-order without recursion: a node is summed after both children.
+    let mut stack = vec![(0u32, false)];
+    while let Some((i, children_done)) = stack.pop() {
+        let n = &bvh.nodes[i as usize];
+        if n.is_leaf() {
+            size[i as usize] = 1;
+        } else if children_done {
+            size[i as usize] = 1 + size[n.index as usize] + size[n.index as usize + 1];
+        } else {
+            stack.push((i, true));
+            stack.push((n.index, false));
+            stack.push((n.index + 1, false));
+        }
+    }
+    size
+}
+
 fn align_up(x: u64, a: u64) -> Option<u64> {
     Some(x.checked_add(a - 1)? / a * a)
 }
@@ -231,7 +254,7 @@ impl Treelets {
             node_bytes,
             triangle_bytes,
         };
-        t.grow_node_treelets(bvh);
+        t.grow_node_treelets(bvh, config.treelet_fringe == Fringe::Packed);
         t.node_treelet_count = t.treelets.len() as u32;
         t.fill_triangle_treelets(bvh)?;
         t.place(
@@ -242,58 +265,123 @@ impl Treelets {
         Ok(t)
     }
 
-    /// Node treelets, grown by sibling pairs in order of their parent's surface area.
-    fn grow_node_treelets(&mut self, bvh: &Bvh) {
+    /// Node treelets, grown by sibling pairs in order of their parent's surface area; with
+    /// `pack_fringe`, the leftover pairs whose subtrees fit the budget whole are packed into
+    /// shared treelets instead of each growing its own.
+    fn grow_node_treelets(&mut self, bvh: &Bvh, pack_fringe: bool) {
         if bvh.nodes.is_empty() {
             return;
         }
         let nb = self.node_bytes as u64;
         let pair = 2 * nb;
+        // Nodes in each node's subtree (itself included), for the packing.
+        let subtree = if pack_fringe {
+            subtree_sizes(bvh)
+        } else {
+            Vec::new()
+        };
         // Entry units: 0 is the root alone, anything else the left child of a pair.
         let mut entries = VecDeque::from([0u32]);
         let mut heap = BinaryHeap::new();
+        let mut small = Vec::new();
         while let Some(entry) = entries.pop_front() {
             let id = self.treelets.len() as u32;
             let start = self.members.len();
             heap.clear();
-            let add = |t: &mut Self, node: u32, heap: &mut BinaryHeap<Frontier>| {
-                t.node_treelet[node as usize] = id;
-                t.members.push(node);
-                let n = &bvh.nodes[node as usize];
-                if !n.is_leaf() {
-                    heap.push(Frontier {
-                        area: n.bounds.surface_area(),
-                        left: n.index,
-                    });
-                }
-            };
             // The top treelet: a padding record, then the root, so pairs start slot-aligned.
             let mut used = pair;
             if entry == 0 {
-                add(self, 0, &mut heap);
+                self.add_node(bvh, id, 0, &mut heap);
             } else {
-                add(self, entry, &mut heap);
-                add(self, entry + 1, &mut heap);
+                self.add_node(bvh, id, entry, &mut heap);
+                self.add_node(bvh, id, entry + 1, &mut heap);
             }
             while heap.peek().is_some() && used + pair <= self.budget_bytes {
                 let f = heap.pop().expect("peeked");
-                add(self, f.left, &mut heap);
-                add(self, f.left + 1, &mut heap);
+                self.add_node(bvh, id, f.left, &mut heap);
+                self.add_node(bvh, id, f.left + 1, &mut heap);
                 used += pair;
             }
             let mut rest: Vec<u32> = heap.drain().map(|f| f.left).collect();
             rest.sort_unstable();
-            entries.extend(rest);
-            let records = (self.members.len() - start) as u32;
-            self.treelets.push(TreeletInfo {
-                kind: TreeletKind::Node,
-                root: Some(entry),
-                records,
-                bytes: used,
-                base: 0,
-            });
-            self.first.push(self.members.len() as u32);
+            self.close_node_treelet(Some(entry), start, used);
+            if !pack_fringe {
+                entries.extend(rest);
+                continue;
+            }
+            // Whole subtrees that fit the budget share treelets, next fit in node-index order;
+            // the others are grown like any entry.
+            small.clear();
+            for left in rest {
+                let n = u64::from(subtree[left as usize] + subtree[left as usize + 1]);
+                if n * nb <= self.budget_bytes {
+                    small.push(left);
+                } else {
+                    entries.push_back(left);
+                }
+            }
+            let mut open: Option<(u32, usize, u64)> = None;
+            for &left in &small {
+                let bytes = u64::from(subtree[left as usize] + subtree[left as usize + 1]) * nb;
+                if let Some((first, start, used)) = open
+                    && used + bytes > self.budget_bytes
+                {
+                    self.close_node_treelet(Some(first), start, used);
+                    open = None;
+                }
+                let (first, start, used) = open.unwrap_or((left, self.members.len(), 0));
+                let id = self.treelets.len() as u32;
+                self.add_subtree(bvh, id, left);
+                open = Some((first, start, used + bytes));
+            }
+            if let Some((first, start, used)) = open {
+                self.close_node_treelet(Some(first), start, used);
+            }
         }
+    }
+
+    /// Put node `node` in treelet `id`; an inner node's children pair joins the frontier.
+    fn add_node(&mut self, bvh: &Bvh, id: u32, node: u32, heap: &mut BinaryHeap<Frontier>) {
+        self.node_treelet[node as usize] = id;
+        self.members.push(node);
+        let n = &bvh.nodes[node as usize];
+        if !n.is_leaf() {
+            heap.push(Frontier {
+                area: n.bounds.surface_area(),
+                left: n.index,
+            });
+        }
+    }
+
+    /// Put the pair `left`, `left + 1` and everything below it in treelet `id`, pair by pair
+    /// (depth first), so every pair stays in one aligned slot.
+    fn add_subtree(&mut self, bvh: &Bvh, id: u32, left: u32) {
+        let mut stack = vec![left];
+        while let Some(l) = stack.pop() {
+            for node in [l, l + 1] {
+                self.node_treelet[node as usize] = id;
+                self.members.push(node);
+            }
+            for node in [l + 1, l] {
+                let n = &bvh.nodes[node as usize];
+                if !n.is_leaf() {
+                    stack.push(n.index);
+                }
+            }
+        }
+    }
+
+    /// End the node treelet whose records start at `members[start]`.
+    fn close_node_treelet(&mut self, root: Option<u32>, start: usize, used: u64) {
+        let records = (self.members.len() - start) as u32;
+        self.treelets.push(TreeletInfo {
+            kind: TreeletKind::Node,
+            root,
+            records,
+            bytes: used,
+            base: 0,
+        });
+        self.first.push(self.members.len() as u32);
     }
 
     /// Triangle treelets: leaves in slot order, a new treelet before a leaf that would

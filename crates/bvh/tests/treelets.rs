@@ -4,6 +4,7 @@
 
 mod support;
 
+use rtsim_bvh::config::Fringe;
 use rtsim_bvh::memory::{NO_TREELET, decode_node};
 use rtsim_bvh::treelet::TreeletKind;
 use rtsim_bvh::{
@@ -103,13 +104,29 @@ fn violations(bvh: &Bvh, cfg: &MemoryLayoutConfig, t: &Treelets) -> Vec<String> 
             }
         }
         if node_kind {
-            // Connected: every member but the entry unit has its parent inside.
+            // Connected: every member but the entry unit has its parent inside. Packed fringe
+            // treelets have an entry pair per subtree, each subtree whole.
             let root = info.root.expect("node treelets have a root");
+            let mut entries = 0;
             for &n in members {
                 let entry = n == root || (root != 0 && n == root + 1);
                 let p = parents[n as usize];
-                if !entry && t.node_treelet[p as usize] != id {
+                if n != 0 && t.node_treelet[p as usize] != id {
+                    entries += 1;
+                }
+                if !entry
+                    && t.node_treelet[p as usize] != id
+                    && cfg.treelet_fringe == Fringe::Separate
+                {
                     v.push(format!("node {n} in treelet {id} without its parent {p}"));
+                }
+            }
+            if entries > 2 {
+                for &n in members {
+                    let node = &bvh.nodes[n as usize];
+                    if !node.is_leaf() && t.node_treelet[node.index as usize] != id {
+                        v.push(format!("packed treelet {id} lacks node {n}'s children"));
+                    }
                 }
             }
             // Greedy: a treelet with room for another pair has no frontier left.
@@ -164,7 +181,13 @@ fn violations(bvh: &Bvh, cfg: &MemoryLayoutConfig, t: &Treelets) -> Vec<String> 
 fn partitions_keep_every_invariant() {
     for order in [NodeOrder::DepthFirst, NodeOrder::BreadthFirst] {
         let (_, bvh) = scene(order);
-        for cfg in configs() {
+        for cfg in configs().into_iter().flat_map(|c| {
+            let separate = MemoryLayoutConfig {
+                treelet_fringe: Fringe::Separate,
+                ..c.clone()
+            };
+            [c, separate]
+        }) {
             let t = Treelets::build(&bvh, &cfg).unwrap();
             let v = violations(&bvh, &cfg, &t);
             assert!(v.is_empty(), "{order:?} {cfg:?}: {v:?}");
@@ -177,6 +200,48 @@ fn partitions_keep_every_invariant() {
                 .count();
             assert!(full > 0, "{cfg:?}: no full node treelet");
         }
+    }
+}
+
+#[test]
+fn packing_the_fringe_fills_treelets() {
+    let (_, bvh) = scene(NodeOrder::DepthFirst);
+    for cfg in configs() {
+        let separate = Treelets::build(
+            &bvh,
+            &MemoryLayoutConfig {
+                treelet_fringe: Fringe::Separate,
+                ..cfg.clone()
+            },
+        )
+        .unwrap();
+        let packed = Treelets::build(
+            &bvh,
+            &MemoryLayoutConfig {
+                treelet_fringe: Fringe::Packed,
+                ..cfg.clone()
+            },
+        )
+        .unwrap();
+        let fill = |t: &Treelets| {
+            let bytes: u64 = t.node_treelets().iter().map(|i| i.bytes).sum();
+            bytes as f64 / (t.node_treelet_count as f64 * t.budget_bytes as f64)
+        };
+        // The same nodes in fewer, fuller treelets.
+        assert!(
+            packed.node_treelet_count * 2 < separate.node_treelet_count,
+            "{cfg:?}: {} packed against {} separate",
+            packed.node_treelet_count,
+            separate.node_treelet_count
+        );
+        assert!(fill(&packed) > 2.0 * fill(&separate), "{cfg:?}");
+        // Triangle treelets do not depend on it (their ids follow the node treelets').
+        let same = packed
+            .triangle_treelet
+            .iter()
+            .zip(&separate.triangle_treelet)
+            .all(|(a, b)| a - packed.node_treelet_count == b - separate.node_treelet_count);
+        assert!(same, "{cfg:?}: triangle treelets differ");
     }
 }
 
