@@ -8,6 +8,10 @@ pub const HEIGHT: u32 = 440;
 /// Plot area: left, top, right and bottom edges (room for tick labels and the legend).
 const PLOT: (f64, f64, f64, f64) = (90.0, 44.0, 560.0, 380.0);
 
+/// Legend text: its size, and where it starts right of the plot area.
+const LEGEND_TEXT: f64 = 11.0;
+const LEGEND_TEXT_X: f64 = 46.0;
+
 /// An sRGB colour.
 pub type Rgb = [u8; 3];
 pub const BLACK: Rgb = [0, 0, 0];
@@ -137,10 +141,27 @@ impl Chart {
         }
     }
 
+    /// The series' names, in legend order.
+    fn series_names(&self) -> impl Iterator<Item = &str> {
+        let names: Vec<&str> = match &self.body {
+            Body::Lines { series, .. } => series.iter().map(|s| s.name.as_str()).collect(),
+            Body::Bars { series, .. } => series.iter().map(|s| s.name.as_str()).collect(),
+        };
+        names.into_iter()
+    }
+
     /// Lay the chart out on the canvas.
     pub fn layout(&self) -> Vec<Prim> {
         let mut out = Vec::new();
         let (l, t, r, b) = PLOT;
+        // The legend sits right of the plot: narrow the plot so its longest name fits.
+        let widest = self
+            .series_names()
+            .map(|n| crate::raster::text_width(LEGEND_TEXT, n))
+            .fold(0.0, f64::max);
+        let r = r
+            .min(WIDTH as f64 - LEGEND_TEXT_X - widest - 6.0)
+            .max(l + 240.0);
         text(
             &mut out,
             (WIDTH as f64) / 2.0,
@@ -181,7 +202,7 @@ impl Chart {
                 let x_axis = Axis::fit(*x_scale, xs, l, r, false);
                 let ys = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
                 let y_axis = Axis::fit(*y_scale, ys, b, t, true);
-                y_grid(&mut out, &y_axis);
+                y_grid(&mut out, &y_axis, l, r);
                 for (x, label) in x_ticks {
                     let px = x_axis.map(*x);
                     line(&mut out, vec![(px, b), (px, b + 5.0)], BLACK, 1.0, false);
@@ -229,7 +250,7 @@ impl Chart {
                     .flat_map(|s| s.values.iter().flatten().copied())
                     .chain(marks.iter().map(|m| m.1));
                 let y_axis = Axis::fit(Scale::Linear, ys, b, t, true);
-                y_grid(&mut out, &y_axis);
+                y_grid(&mut out, &y_axis, l, r);
                 let slot = (r - l) / categories.len().max(1) as f64;
                 let bar = slot * 0.8 / series.len().max(1) as f64;
                 for (i, c) in categories.iter().enumerate() {
@@ -289,7 +310,14 @@ impl Chart {
                 2.5,
                 *dashed,
             );
-            text(&mut out, r + 46.0, y + 4.0, 11.0, Anchor::Start, name);
+            text(
+                &mut out,
+                r + LEGEND_TEXT_X,
+                y + 4.0,
+                LEGEND_TEXT,
+                Anchor::Start,
+                name,
+            );
         }
         out
     }
@@ -317,8 +345,7 @@ fn line(out: &mut Vec<Prim>, points: Vec<(f64, f64)>, color: Rgb, width: f64, da
 }
 
 /// Horizontal grid lines and labels at the y axis's ticks.
-fn y_grid(out: &mut Vec<Prim>, y: &Axis) {
-    let (l, _, r, _) = PLOT;
+fn y_grid(out: &mut Vec<Prim>, y: &Axis, l: f64, r: f64) {
     for v in y.ticks() {
         let py = y.map(v);
         line(out, vec![(l, py), (r, py)], LIGHT, 1.0, false);
@@ -555,5 +582,28 @@ mod tests {
                 .iter()
                 .any(|p| matches!(p, Prim::Text { text, .. } if text == "s"))
         );
+    }
+
+    #[test]
+    fn long_legend_names_fit_on_the_canvas() {
+        let ticks = vec![(1.0, "1".into()), (4.0, "4".into())];
+        let mut c = line_chart(Scale::Linear, vec![(4.0, 2.0), (1.0, 1.0)], ticks);
+        let name = "conference baseline (128 TMs) L1 misses";
+        if let Body::Lines { series, .. } = &mut c.body {
+            series[0].name = name.into();
+        }
+        let prims = c.layout();
+        let (x, size) = prims
+            .iter()
+            .find_map(|p| match p {
+                Prim::Text { x, size, text, .. } if text == name => Some((*x, *size)),
+                _ => None,
+            })
+            .expect("legend entry");
+        let end = x + crate::raster::text_width(size, name);
+        assert!(end <= WIDTH as f64, "legend ends at {end}");
+        // The plot narrowed, and its right edge is where the grid lines end.
+        let right = PLOT.2.min(x - LEGEND_TEXT_X);
+        assert!(right < PLOT.2, "{right}");
     }
 }

@@ -94,6 +94,18 @@ pub fn th(s: &str, span: usize) -> String {
     }
 }
 
+/// `v` with `digits` significant digits in plain decimal notation (`0.583`, `0.0111`, `12.3`,
+/// `1980`), never in exponent form: energies per frame span 10⁻⁴ to 10¹ J and read better
+/// as plain numbers in a table.
+pub fn significant(v: f64, digits: u32) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let magnitude = v.abs().log10().floor() as i32;
+    let decimals = (digits as i32 - 1 - magnitude).clamp(0, 17) as usize;
+    format!("{v:.decimals$}")
+}
+
 /// `v` with `decimals` digits after the point.
 pub fn fixed(v: f64, decimals: usize) -> String {
     format!("{v:.decimals$}")
@@ -176,6 +188,17 @@ pub fn page(r: &Results, sections: &[Section], svgs: &[(String, String, Vec<u8>)
 mod tests {
     use super::*;
     use crate::table::Cell;
+
+    #[test]
+    fn significant_digits_stay_plain() {
+        assert_eq!(significant(0.582616882344, 3), "0.583");
+        assert_eq!(significant(0.011140251612, 3), "0.0111");
+        assert_eq!(significant(1.977, 3), "1.98");
+        assert_eq!(significant(12.34, 3), "12.3");
+        assert_eq!(significant(1977.0, 3), "1977");
+        assert_eq!(significant(0.000123456, 3), "0.000123");
+        assert_eq!(significant(0.0, 3), "0");
+    }
 
     #[test]
     fn our_cells_carry_their_source_and_exact_value() {

@@ -111,6 +111,21 @@ fn glyph(c: char) -> [u8; 8] {
     font8x8::legacy::BASIC_LEGACY[i]
 }
 
+/// Supersampled pixels per font pixel for text of `size`: whole, so every glyph is drawn
+/// alike, and rounded down, so a line of the bitmap font is about as wide as the SVG's
+/// sans-serif.
+fn font_scale(size: f64) -> i64 {
+    ((size * SUPERSAMPLE as f64) / GLYPH as f64)
+        .floor()
+        .max(1.0) as i64
+}
+
+/// Width in canvas pixels of `s` drawn at `size` (the bitmap font is monospaced), so a
+/// layout can make room for its longest label.
+pub fn text_width(size: f64, s: &str) -> f64 {
+    (font_scale(size) * GLYPH as i64 * s.chars().count() as i64) as f64 / SUPERSAMPLE as f64
+}
+
 /// Text: the 8×8 glyphs scaled to about `size` pixels per line.
 #[allow(clippy::too_many_arguments)]
 fn draw_text(
@@ -124,9 +139,7 @@ fn draw_text(
     s: &str,
 ) {
     let ss = SUPERSAMPLE as f64;
-    // Supersampled pixels per font pixel: whole, so every glyph is drawn alike, and rounded
-    // down, so a line of the bitmap font is about as wide as the SVG's sans-serif.
-    let scale = ((size * ss) / GLYPH as f64).floor().max(1.0) as i64;
+    let scale = font_scale(size);
     let advance = GLYPH as i64 * scale;
     let total = advance * s.chars().count() as i64;
     let start = match anchor {

@@ -10,7 +10,7 @@
 //!   counts.
 
 use crate::chart::{self, BarSeries, Body, Chart, Scale, Series, bytes_label, palette};
-use crate::html::{Section, Val, fixed, table, td, td_val, th};
+use crate::html::{Section, Val, fixed, significant, table, td, td_val, th};
 use crate::paper::{self, DramCols};
 use crate::table::Row;
 use crate::{Arch, Figure, Results, SCENE_COLUMN};
@@ -498,7 +498,7 @@ fn dram_ours(row: Option<&&Row>, missing: &str) -> String {
         + &td_val(&v(ROW_HIT_RATE), |x| fixed(100.0 * x, 0), missing)
         + &td_val(&v(READ_LATENCY), |x| fixed(x, 0), missing)
         + &td_val(&v(MS_PER_FRAME), |x| fixed(x, 3), missing)
-        + &td_val(&v(DRAM_ENERGY), |x| format!("{x:.3e}"), missing)
+        + &td_val(&v(DRAM_ENERGY), |x| significant(x, 3), missing)
 }
 
 /// Table 1: DRAM characteristics and ms/frame per scene, baseline and STRaTA.
@@ -624,7 +624,7 @@ pub fn table3(r: &Results) -> String {
         let key = ours.clone().unwrap_or_default();
         let (b, s) = (base.get(&key), strata.get(&key));
         let v = |row: Option<&&Row>, col: &str| row.and_then(|r| Val::mean(&[r], col));
-        let e = |x: f64| format!("{x:.3e}");
+        let e = |x: f64| significant(x, 3);
         let diff = match (b, s) {
             (Some(b), Some(s)) => fixed(
                 100.0 * (num(s, RF_ENERGY) + num(s, ICACHE_ENERGY))
