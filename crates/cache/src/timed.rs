@@ -161,7 +161,8 @@ enum Stage {
     /// At the cycle its bank gave it, after waiting.
     Lookup,
     /// Offered again from the queue of accesses waiting for an MSHR or the write buffer
-    /// (its bank was already used), or a read that joined another's lookup.
+    /// (its bank was already used). Reads that joined another's lookup go straight to
+    /// `perform` with it.
     Replay,
 }
 
