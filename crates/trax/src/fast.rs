@@ -355,19 +355,25 @@ impl Parked {
     }
 }
 
+/// Where TPs wait between their events: for a cycle ([`Wheel`]), for the atomic counter
+/// ([`AtomicQueue`]), or parked on a refusal that repeats ([`Parked`]).
+#[derive(Debug)]
+struct Waits {
+    wheel: Wheel,
+    atomics: AtomicQueue,
+    parked: Parked,
+}
+
 /// The offers of cycle `t` of TM `tm` (`offers`, by key) merged with its parked TPs.
-#[allow(clippy::too_many_arguments)]
 fn tm_run<S: Source>(
     chip: &mut Chip<'_, S>,
-    wheel: &mut Wheel,
-    atomics: &mut AtomicQueue,
-    parked: &mut Parked,
+    w: &mut Waits,
     tm: usize,
     offers: &[(u32, u64, u32)],
     t: u64,
 ) -> Result<(), ChipError> {
-    let list = std::mem::take(&mut parked.by_tm[tm]);
-    let mut keep = std::mem::take(&mut parked.keep);
+    let list = std::mem::take(&mut w.parked.by_tm[tm]);
+    let mut keep = std::mem::take(&mut w.parked.keep);
     keep.clear();
     let (mut pi, mut fi) = (0, 0);
     // Whether the parked TP at hand is known to be refused: it offers what the last one
@@ -384,7 +390,7 @@ fn tm_run<S: Source>(
         if take_offer {
             let tp = offers[fi].2 as usize;
             fi += 1;
-            offer(chip, wheel, atomics, parked, tp, t)?;
+            offer(chip, w, tp, t)?;
             refused_now = false;
             continue;
         }
@@ -402,19 +408,19 @@ fn tm_run<S: Source>(
             continue;
         }
         // Offered again: charge the refusals skipped before this cycle.
-        parked.n -= 1;
+        w.parked.n -= 1;
         Parked::charge(chip, &p, t - 1);
         chip.cores[tp].access_at = t;
         match chip.access(tp, i, t)? {
-            Offered::Accepted => parked.woken.push(p.tp),
-            Offered::Busy { retry_at } => refused(chip, wheel, atomics, parked, tp, i, t, retry_at),
+            Offered::Accepted => w.parked.woken.push(p.tp),
+            Offered::Busy { retry_at } => refused(chip, w, tp, i, t, retry_at),
         }
     }
     // Those parked this cycle join the ones still parked, in (key, TP) order.
-    keep.append(&mut parked.by_tm[tm]);
+    keep.append(&mut w.parked.by_tm[tm]);
     keep.sort_unstable_by_key(|p| (p.key, p.tp));
-    parked.by_tm[tm] = keep;
-    parked.keep = list;
+    w.parked.by_tm[tm] = keep;
+    w.parked.keep = list;
     Ok(())
 }
 
@@ -422,12 +428,9 @@ fn tm_run<S: Source>(
 /// ([`AtomicQueue`]), is parked if the source says the refusal repeats ([`Parked`]), or offers
 /// again at `retry_at`.
 #[inline]
-#[allow(clippy::too_many_arguments)]
 fn refused<S: Source>(
     chip: &mut Chip<'_, S>,
-    wheel: &mut Wheel,
-    atomics: &mut AtomicQueue,
-    parked: &mut Parked,
+    w: &mut Waits,
     tp: usize,
     i: usize,
     t: u64,
@@ -436,7 +439,7 @@ fn refused<S: Source>(
     let d = chip.dec[i];
     if d.class == Class::Atomic {
         debug_assert_eq!(retry_at, t + 1);
-        atomics.park(chip, tp, t);
+        w.atomics.park(chip, tp, t);
         return;
     }
     if retry_at == t + 1
@@ -447,12 +450,12 @@ fn refused<S: Source>(
     {
         let tm = chip.cores[tp].tm as usize;
         if let Some(stall) = chip.src.still_refused(tp, tm, d.class, d.mem, t) {
-            parked.park(tm, chip.cores[tp].key, tp, t, stall);
+            w.parked.park(tm, chip.cores[tp].key, tp, t, stall);
             return;
         }
     }
     chip.cores[tp].access_at = retry_at;
-    wheel.add(retry_at, tp);
+    w.wheel.add(retry_at, tp);
 }
 
 /// Progress callback: called now and then with the chip and the current cycle.
@@ -472,22 +475,24 @@ pub fn run<S: Source>(
         chip.cfg.icache_banks as usize,
         256,
     );
-    let mut wheel = Wheel::new(n, 1024);
+    let mut w = Waits {
+        wheel: Wheel::new(n, 1024),
+        atomics: AtomicQueue::default(),
+        parked: Parked::new(chip.cfg.tms as usize),
+    };
     for tp in 0..n {
-        wheel.add(0, tp);
+        w.wheel.add(0, tp);
     }
     let mut batch: Vec<u32> = Vec::with_capacity(n);
     let mut offers: Vec<(u32, u64, u32)> = Vec::with_capacity(n);
     let mut done = std::mem::take(&mut chip.completions);
     let mut last = 0;
     let mut ticks = 0u32;
-    let mut atomics = AtomicQueue::default();
-    let mut parked = Parked::new(chip.cfg.tms as usize);
     loop {
-        let t_tp = wheel.next();
+        let t_tp = w.wheel.next();
         let t_mem = chip.hier.next_event();
         // Parked TPs are asked again every cycle.
-        let t_parked = (parked.n > 0).then_some(last + 1);
+        let t_parked = (w.parked.n > 0).then_some(last + 1);
         let t = match (t_tp, t_mem, t_parked) {
             (None, None, None) => break,
             (a, b, c) => a
@@ -498,7 +503,7 @@ pub fn run<S: Source>(
         if limit.is_some_and(|l| t >= l) {
             break;
         }
-        wheel.now = t;
+        w.wheel.now = t;
         if t_mem.is_some_and(|m| m <= t) {
             chip.hier.advance_to(t)?;
             chip.hier.drain_completions(&mut done);
@@ -509,12 +514,12 @@ pub fn run<S: Source>(
                 if core.wait == Wait::Blocked {
                     let i = (core.run.seg.start + core.ip) as usize;
                     if core.pending & chip.dec[i].regs == 0 {
-                        wheel.add(t, tp);
+                        w.wheel.add(t, tp);
                     }
                 }
             }
         }
-        wheel.take(t, &mut batch);
+        w.wheel.take(t, &mut batch);
         // First the cycle's accesses, TM by TM, oldest first (by key, ties by TP index); then
         // every TP that resumes now — accepted or woken by a returned miss — books ahead with
         // key `t` in TP order (`docs/TRAX.md`). A resuming TP's access in this cycle is
@@ -532,34 +537,34 @@ pub fn run<S: Source>(
         // The batch is in TP order, so TM by TM: order each TM's run by key (a few TPs:
         // insertion sort).
         insertion_sort(&mut offers);
-        if parked.n == 0 {
+        if w.parked.n == 0 {
             for (k, &(_, _, tp)) in offers.iter().enumerate() {
                 if let Some(&(_, _, ahead)) = offers.get(k + AHEAD) {
                     prefetch_tp(chip, ahead as usize);
                 }
-                offer(chip, &mut wheel, &mut atomics, &mut parked, tp as usize, t)?;
+                offer(chip, &mut w, tp as usize, t)?;
             }
         } else {
             // TM by TM, each TM's offers merged with its parked TPs.
-            parked.woken.clear();
+            w.parked.woken.clear();
             let mut k = 0;
-            for tm in 0..parked.by_tm.len() {
+            for tm in 0..w.parked.by_tm.len() {
                 let start = k;
                 while k < offers.len() && offers[k].0 as usize == tm {
                     k += 1;
                 }
-                if parked.by_tm[tm].is_empty() {
+                if w.parked.by_tm[tm].is_empty() {
                     for &(_, _, tp) in &offers[start..k] {
-                        offer(chip, &mut wheel, &mut atomics, &mut parked, tp as usize, t)?;
+                        offer(chip, &mut w, tp as usize, t)?;
                     }
                 } else {
                     let run = &offers[start..k];
-                    tm_run(chip, &mut wheel, &mut atomics, &mut parked, tm, run, t)?;
+                    tm_run(chip, &mut w, tm, run, t)?;
                 }
             }
             debug_assert_eq!(k, offers.len());
-            if !parked.woken.is_empty() {
-                batch.extend_from_slice(&parked.woken);
+            if !w.parked.woken.is_empty() {
+                batch.extend_from_slice(&w.parked.woken);
                 batch.sort_unstable();
             }
         }
@@ -567,29 +572,21 @@ pub fn run<S: Source>(
             if let Some(&ahead) = batch.get(k + AHEAD) {
                 prefetch_tp(chip, ahead as usize);
             }
-            resume(
-                chip,
-                &mut cal,
-                &mut wheel,
-                &mut atomics,
-                &mut parked,
-                tp as usize,
-                t,
-            )?;
+            resume(chip, &mut cal, &mut w, tp as usize, t)?;
         }
-        atomics.wake(chip, &mut wheel, t);
+        w.atomics.wake(chip, &mut w.wheel, t);
         last = t;
         ticks += 1;
         if ticks & 0x3FFF == 0 {
             progress(t, chip.pixels_done, chip.rays_done);
         }
-        if chip.live == 0 && t_tp.is_none() && wheel.next().is_none() && parked.n == 0 {
+        if chip.live == 0 && t_tp.is_none() && w.wheel.next().is_none() && w.parked.n == 0 {
             // Every TP has halted; what remains in the memory system is drained by the caller.
             break;
         }
     }
-    atomics.flush(chip, last);
-    parked.flush(chip, last);
+    w.atomics.flush(chip, last);
+    w.parked.flush(chip, last);
     chip.completions = done;
     Ok(last)
 }
@@ -630,16 +627,14 @@ fn insertion_sort<T: Ord + Copy>(v: &mut [T]) {
 /// Offer TP `tp`'s pending access at cycle `t`; refused, it waits for the retry cycle.
 fn offer<S: Source>(
     chip: &mut Chip<'_, S>,
-    wheel: &mut Wheel,
-    atomics: &mut AtomicQueue,
-    parked: &mut Parked,
+    w: &mut Waits,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
     debug_assert_eq!(chip.cores[tp].access_at, t);
     let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
     if let Offered::Busy { retry_at } = chip.access(tp, i, t)? {
-        refused(chip, wheel, atomics, parked, tp, i, t, retry_at);
+        refused(chip, w, tp, i, t, retry_at);
     }
     Ok(())
 }
@@ -649,9 +644,7 @@ fn offer<S: Source>(
 fn resume<S: Source>(
     chip: &mut Chip<'_, S>,
     cal: &mut Calendar,
-    wheel: &mut Wheel,
-    atomics: &mut AtomicQueue,
-    parked: &mut Parked,
+    w: &mut Waits,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
@@ -664,7 +657,7 @@ fn resume<S: Source>(
             core.wait = Wait::Ready;
         }
     }
-    run_ahead(chip, cal, wheel, atomics, parked, tp, t)
+    run_ahead(chip, cal, w, tp, t)
 }
 
 /// Book TP `tp`'s instructions from its current one, with priority key `t`, up to its next
@@ -673,9 +666,7 @@ fn resume<S: Source>(
 fn run_ahead<S: Source>(
     chip: &mut Chip<'_, S>,
     cal: &mut Calendar,
-    wheel: &mut Wheel,
-    atomics: &mut AtomicQueue,
-    parked: &mut Parked,
+    w: &mut Waits,
     tp: usize,
     t: u64,
 ) -> Result<(), ChipError> {
@@ -744,7 +735,7 @@ fn run_ahead<S: Source>(
         core.wait = Wait::Access;
         core.access_at = c;
         if c > t {
-            wheel.add(c, tp);
+            w.wheel.add(c, tp);
             return Ok(());
         }
         // The access falls in the current cycle: offer it now, in this TP's turn.
@@ -753,7 +744,7 @@ fn run_ahead<S: Source>(
                 chip.cores[tp].key = t;
             }
             Offered::Busy { retry_at } => {
-                refused(chip, wheel, atomics, parked, tp, i, t, retry_at);
+                refused(chip, w, tp, i, t, retry_at);
                 return Ok(());
             }
         }
