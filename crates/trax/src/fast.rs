@@ -291,6 +291,8 @@ impl AtomicQueue {
 struct ParkedTp {
     key: u64,
     tp: u32,
+    /// The instruction it offers (unchanged while it is parked).
+    inst: u32,
     since: u64,
     stall: Stall,
 }
@@ -310,6 +312,8 @@ struct Parked {
     n: usize,
     /// Scratch: the ones that stay parked through a TM's run.
     keep: Vec<ParkedTp>,
+    /// Scratch: the ones parked during a TM's run.
+    spare: Vec<ParkedTp>,
     /// Scratch: TPs offered again and accepted this cycle (they resume with the batch).
     woken: Vec<u32>,
 }
@@ -322,10 +326,11 @@ impl Parked {
         }
     }
 
-    fn park(&mut self, tm: usize, key: u64, tp: usize, t: u64, stall: Stall) {
+    fn park(&mut self, tm: usize, key: u64, tp: usize, inst: usize, t: u64, stall: Stall) {
         self.by_tm[tm].push(ParkedTp {
             key,
             tp: tp as u32,
+            inst: inst as u32,
             since: t,
             stall,
         });
@@ -338,8 +343,7 @@ impl Parked {
         if n > 0 {
             let tp = p.tp as usize;
             chip.issue.stall[p.stall as usize] += n;
-            let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
-            let d = chip.dec[i];
+            let d = chip.dec[p.inst as usize];
             chip.src.refused_again(tp, d.class, d.mem, n);
         }
     }
@@ -372,9 +376,14 @@ fn tm_run<S: Source>(
     offers: &[(u32, u64, u32)],
     t: u64,
 ) -> Result<(), ChipError> {
-    let list = std::mem::take(&mut w.parked.by_tm[tm]);
+    // TPs parked during this run go to a spare list, merged in at the end.
+    let spare = std::mem::take(&mut w.parked.spare);
+    let list = std::mem::replace(&mut w.parked.by_tm[tm], spare);
+    // The parked TPs that stay: `list[..pi]` until one leaves (`left`), then `keep`. Most
+    // cycles none leaves and nothing is copied.
     let mut keep = std::mem::take(&mut w.parked.keep);
     keep.clear();
+    let mut left = false;
     let (mut pi, mut fi) = (0, 0);
     // Whether the parked TP at hand is known to be refused: it offers what the last one
     // asked offered, and no access of this TM has been offered since.
@@ -395,18 +404,36 @@ fn tm_run<S: Source>(
             continue;
         }
         let p = list[pi];
-        pi += 1;
         let tp = p.tp as usize;
-        let i = (chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize;
+        let i = p.inst as usize;
         let d = chip.dec[i];
-        if !refused_now || asked != Some((d.class, d.mem)) {
+        let q = (d.class, d.mem);
+        if !refused_now || asked != Some(q) {
             refused_now = chip.src.still_refused(tp, tm, d.class, d.mem, t).is_some();
-            asked = Some((d.class, d.mem));
+            asked = Some(q);
         }
         if refused_now {
-            keep.push(p);
+            // So is every parked TP after it that offers the same, up to the TM's next offer.
+            let next = offers.get(fi).map(|&(_, key, tp)| (key, tp));
+            let mut end = pi + 1;
+            while let Some(r) = list.get(end) {
+                let dr = chip.dec[r.inst as usize];
+                if next.is_some_and(|o| o < (r.key, r.tp)) || (dr.class, dr.mem) != q {
+                    break;
+                }
+                end += 1;
+            }
+            if left {
+                keep.extend_from_slice(&list[pi..end]);
+            }
+            pi = end;
             continue;
         }
+        if !left {
+            keep.extend_from_slice(&list[..pi]);
+            left = true;
+        }
+        pi += 1;
         // Offered again: charge the refusals skipped before this cycle.
         w.parked.n -= 1;
         Parked::charge(chip, &p, t - 1);
@@ -416,11 +443,19 @@ fn tm_run<S: Source>(
             Offered::Busy { retry_at } => refused(chip, w, tp, i, t, retry_at),
         }
     }
-    // Those parked this cycle join the ones still parked, in (key, TP) order.
-    keep.append(&mut w.parked.by_tm[tm]);
-    keep.sort_unstable_by_key(|p| (p.key, p.tp));
-    w.parked.by_tm[tm] = keep;
-    w.parked.keep = list;
+    // Those parked this cycle join the ones still parked, in (key, TP) order. Both runs are
+    // already in that order (this TM's offers and parked TPs were taken in merged order), so
+    // the stable sort merges them in one pass; keys are unique, so any sort gives this order.
+    let mut new = std::mem::take(&mut w.parked.by_tm[tm]);
+    let (mut kept, mut unused) = if left { (keep, list) } else { (list, keep) };
+    if !new.is_empty() {
+        kept.append(&mut new);
+        kept.sort_by_key(|p| (p.key, p.tp));
+    }
+    unused.clear();
+    w.parked.by_tm[tm] = kept;
+    w.parked.keep = unused;
+    w.parked.spare = new;
     Ok(())
 }
 
@@ -450,7 +485,7 @@ fn refused<S: Source>(
     {
         let tm = chip.cores[tp].tm as usize;
         if let Some(stall) = chip.src.still_refused(tp, tm, d.class, d.mem, t) {
-            w.parked.park(tm, chip.cores[tp].key, tp, t, stall);
+            w.parked.park(tm, chip.cores[tp].key, tp, i, t, stall);
             return;
         }
     }
@@ -564,8 +599,12 @@ pub fn run<S: Source>(
             }
             debug_assert_eq!(k, offers.len());
             if !w.parked.woken.is_empty() {
+                // The batch is in TP order and the woken are few: sort them, then the stable
+                // sort merges the two runs in one pass (TPs are distinct: a parked TP is not
+                // on the wheel).
+                w.parked.woken.sort_unstable();
                 batch.extend_from_slice(&w.parked.woken);
-                batch.sort_unstable();
+                batch.sort();
             }
         }
         for (k, &tp) in batch.iter().enumerate() {
