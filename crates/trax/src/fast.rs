@@ -368,7 +368,9 @@ struct Waits {
     parked: Parked,
 }
 
-/// The offers of cycle `t` of TM `tm` (`offers`, by key) merged with its parked TPs.
+/// The offers of cycle `t` of TM `tm` (`offers`, by key) merged with its parked TPs. Kept
+/// out of line: only sources that park (STRaTA) reach it.
+#[inline(never)]
 fn tm_run<S: Source>(
     chip: &mut Chip<'_, S>,
     w: &mut Waits,
