@@ -859,9 +859,26 @@ impl Source for StrataSource<'_> {
         (!self.port_free(bank, t)).then_some(Stall::Stream)
     }
 
-    fn refused_again(&mut self, _tp: usize, _class: Class, _mem: Mem, n: u64) {
-        self.facts.bank_conflicts += n;
-        self.facts.bank_conflicts_by_op[0] += n;
+    fn unit_wait(&self, tm: usize, class: Class, _t: u64) -> Option<(u32, u64, Stall)> {
+        // A triangle test is refused only while both pipelines are busy (`access`), and
+        // a pipeline frees only with time.
+        if class != Class::TriTest {
+            return None;
+        }
+        let n = self.cfg.triangle_pipelines as usize;
+        let free_at = self.tms[tm].tri_free[..n].iter().copied().min()?;
+        Some((n as u32, free_at, Stall::Stream))
+    }
+
+    fn refused_again(&mut self, _tp: usize, class: Class, _mem: Mem, n: u64) {
+        if class == Class::TriTest {
+            // Triangle pipelines busy (`unit_wait`).
+            self.facts.pipeline_waits += n;
+        } else {
+            // A pop whose bank has no port left (`still_refused`).
+            self.facts.bank_conflicts += n;
+            self.facts.bank_conflicts_by_op[0] += n;
+        }
     }
 
     fn extra_energy(&self, cfg: &TraxConfig, issue: &IssueStats) -> (f64, f64) {

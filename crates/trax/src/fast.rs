@@ -359,13 +359,154 @@ impl Parked {
     }
 }
 
+/// TPs whose access waits for one of a few units of their TM ([`Source::unit_wait`]:
+/// STRaTA's triangle pipelines). In the reference every refused TP of a TM offers again when
+/// the first unit frees (they all got that cycle as their retry), in (key, TP) order with
+/// whatever else offers then; at most `units` of all offerers can be accepted, and they are
+/// among the first `units` waiters and the new offerers. So only the first `units` waiters
+/// are offered (woken through the wheel at that cycle, a *round*); the others would be
+/// refused, changing nothing but counters, and stay here. A waiter queued after round `c0`
+/// and offered at round `c` skipped `c - 1 - c0` refusals, whose stall cycles telescope to
+/// the offer cycle minus its first retry cycle; both are charged when it is offered.
+#[derive(Debug, Default)]
+struct UnitQueue {
+    /// Per TM: waiting (key, TP), smallest first.
+    by_tm: Vec<BinaryHeap<Reverse<(u64, u32)>>>,
+    /// Per TM: its rounds so far.
+    rounds: Vec<u64>,
+    /// Per TM: the cycle of its next round (while it has waiters), and the class waited for.
+    next: Vec<Option<(u64, Class)>>,
+    /// Per TM: units offered per round.
+    units: Vec<u32>,
+    /// Scheduled rounds (cycle, TM), earliest first.
+    due: BinaryHeap<Reverse<(u64, u32)>>,
+    /// Per TP while it waits: the TM's round count when it was queued, its first retry cycle,
+    /// and the stall its refusals count as.
+    since: Vec<(u64, u64, Stall)>,
+    /// Scratch: the TMs with a round in the current cycle.
+    now: Vec<u32>,
+    /// TPs waiting in all.
+    n: usize,
+}
+
+impl UnitQueue {
+    fn new(tms: usize, tps: usize) -> Self {
+        UnitQueue {
+            by_tm: vec![BinaryHeap::new(); tms],
+            rounds: vec![0; tms],
+            next: vec![None; tms],
+            units: vec![0; tms],
+            since: vec![(0, 0, Stall::Unit); tps],
+            ..UnitQueue::default()
+        }
+    }
+
+    /// TP `tp` of TM `tm`, with key `key`, was refused for `class` and waits for the TM's
+    /// units, as [`Source::unit_wait`] describes them: `units` of them, the first free at
+    /// `free_at` (its retry), its cycles until then a stall of `stall`.
+    fn wait(&mut self, tm: usize, key: u64, tp: usize, class: Class, wait: (u32, u64, Stall)) {
+        let (units, free_at, stall) = wait;
+        self.by_tm[tm].push(Reverse((key, tp as u32)));
+        self.since[tp] = (self.rounds[tm], free_at, stall);
+        self.units[tm] = units;
+        match self.next[tm] {
+            None => {
+                self.next[tm] = Some((free_at, class));
+                self.due.push(Reverse((free_at, tm as u32)));
+            }
+            Some(r) => debug_assert_eq!(r, (free_at, class), "the TM's waiters share a retry"),
+        }
+        self.n += 1;
+    }
+
+    /// The earliest scheduled round.
+    fn next_round(&self) -> Option<u64> {
+        self.due.peek().map(|Reverse((c, _))| *c)
+    }
+
+    /// Start of cycle `t`: the TMs with a round now offer their first waiters.
+    fn start<S: Source>(&mut self, chip: &mut Chip<'_, S>, wheel: &mut Wheel, t: u64) {
+        while let Some(&Reverse((c, tm))) = self.due.peek() {
+            if c != t {
+                debug_assert!(c > t, "a round was left behind");
+                break;
+            }
+            self.due.pop();
+            let tm = tm as usize;
+            self.next[tm] = None;
+            self.rounds[tm] += 1;
+            self.now.push(tm as u32);
+            for _ in 0..self.units[tm] {
+                let Some(Reverse((_, tp))) = self.by_tm[tm].pop() else {
+                    break;
+                };
+                let tp = tp as usize;
+                self.charge(chip, tp, self.rounds[tm] - 1, t);
+                chip.cores[tp].access_at = t;
+                wheel.add(t, tp);
+                self.n -= 1;
+            }
+        }
+    }
+
+    /// Charge waiter `tp` the refusals of its TM's rounds after it was queued, up to round
+    /// `upto`, the last of which retried at `until`.
+    fn charge<S: Source>(&self, chip: &mut Chip<'_, S>, tp: usize, upto: u64, until: u64) {
+        let (c0, first, stall) = self.since[tp];
+        let skipped = upto - c0;
+        if skipped > 0 {
+            chip.issue.stall[stall as usize] += until - first;
+            let d = chip.dec[(chip.cores[tp].run.seg.start + chip.cores[tp].ip) as usize];
+            chip.src.refused_again(tp, d.class, d.mem, skipped);
+        }
+    }
+
+    /// End of cycle `t`: the TMs that had a round and still have waiters schedule the next.
+    fn end<S: Source>(&mut self, chip: &Chip<'_, S>, t: u64) {
+        for tm in self.now.drain(..) {
+            let tm = tm as usize;
+            if self.by_tm[tm].is_empty() || self.next[tm].is_some() {
+                continue;
+            }
+            // Every waiter was offered before (none joined this cycle), so they wait for the
+            // same class.
+            let Reverse((_, tp)) = *self.by_tm[tm].peek().expect("a waiter");
+            let c = &chip.cores[tp as usize];
+            let class = chip.dec[(c.run.seg.start + c.ip) as usize].class;
+            let (_, free_at, _) = chip
+                .src
+                .unit_wait(tm, class, t)
+                .expect("the source still has the unit busy");
+            debug_assert!(free_at > t, "a unit was left free with waiters");
+            self.next[tm] = Some((free_at, class));
+            self.due.push(Reverse((free_at, tm as u32)));
+        }
+    }
+
+    /// The run stops: charge the waiters' refusals of the rounds held since they queued.
+    fn flush<S: Source>(&mut self, chip: &mut Chip<'_, S>) {
+        for tm in 0..self.by_tm.len() {
+            let heap = std::mem::take(&mut self.by_tm[tm]);
+            for Reverse((_, tp)) in heap {
+                // Each round's refusal counts the cycles to the next round, scheduled at the
+                // end of the round.
+                let (until, _) = self.next[tm].expect("waiters have a next round");
+                self.charge(chip, tp as usize, self.rounds[tm], until);
+            }
+        }
+        self.n = 0;
+    }
+}
+
 /// Where TPs wait between their events: for a cycle ([`Wheel`]), for the atomic counter
-/// ([`AtomicQueue`]), or parked on a refusal that repeats ([`Parked`]).
+/// ([`AtomicQueue`]), parked on a refusal that repeats ([`Parked`]), or for a busy unit
+/// ([`UnitQueue`]).
 #[derive(Debug)]
 struct Waits {
     wheel: Wheel,
     atomics: AtomicQueue,
     parked: Parked,
+    units: UnitQueue,
 }
 
 /// The offers of cycle `t` of TM `tm` (`offers`, by key) merged with its parked TPs. Kept
@@ -479,13 +620,18 @@ fn refused<S: Source>(
         w.atomics.park(chip, tp, t);
         return;
     }
+    let tm = chip.cores[tp].tm as usize;
+    if let Some(wait) = chip.src.unit_wait(tm, d.class, t) {
+        debug_assert_eq!(wait.1, retry_at, "a unit wait retries when the unit frees");
+        w.units.wait(tm, chip.cores[tp].key, tp, d.class, wait);
+        return;
+    }
     if retry_at == t + 1
         && matches!(
             d.class,
             Class::TriTest | Class::StreamLoad | Class::StreamStore
         )
     {
-        let tm = chip.cores[tp].tm as usize;
         if let Some(stall) = chip.src.still_refused(tp, tm, d.class, d.mem, t) {
             w.parked.park(tm, chip.cores[tp].key, tp, i, t, stall);
             return;
@@ -516,6 +662,7 @@ pub fn run<S: Source>(
         wheel: Wheel::new(n, 1024),
         atomics: AtomicQueue::default(),
         parked: Parked::new(chip.cfg.tms as usize),
+        units: UnitQueue::new(chip.cfg.tms as usize, n),
     };
     for tp in 0..n {
         w.wheel.add(0, tp);
@@ -530,17 +677,22 @@ pub fn run<S: Source>(
         let t_mem = chip.hier.next_event();
         // Parked TPs are asked again every cycle.
         let t_parked = (w.parked.n > 0).then_some(last + 1);
-        let t = match (t_tp, t_mem, t_parked) {
-            (None, None, None) => break,
-            (a, b, c) => a
+        let t_units = w.units.next_round();
+        let t = match (t_tp, t_mem, t_parked, t_units) {
+            (None, None, None, None) => break,
+            (a, b, c, d) => a
                 .unwrap_or(u64::MAX)
                 .min(b.unwrap_or(u64::MAX))
-                .min(c.unwrap_or(u64::MAX)),
+                .min(c.unwrap_or(u64::MAX))
+                .min(d.unwrap_or(u64::MAX)),
         };
         if limit.is_some_and(|l| t >= l) {
             break;
         }
         w.wheel.now = t;
+        if t_units == Some(t) {
+            w.units.start(chip, &mut w.wheel, t);
+        }
         if t_mem.is_some_and(|m| m <= t) {
             chip.hier.advance_to(t)?;
             chip.hier.drain_completions(&mut done);
@@ -616,18 +768,27 @@ pub fn run<S: Source>(
             resume(chip, &mut cal, &mut w, tp as usize, t)?;
         }
         w.atomics.wake(chip, &mut w.wheel, t);
+        if !w.units.now.is_empty() {
+            w.units.end(chip, t);
+        }
         last = t;
         ticks += 1;
         if ticks & 0x3FFF == 0 {
             progress(t, chip.pixels_done, chip.rays_done);
         }
-        if chip.live == 0 && t_tp.is_none() && w.wheel.next().is_none() && w.parked.n == 0 {
+        if chip.live == 0
+            && t_tp.is_none()
+            && w.wheel.next().is_none()
+            && w.parked.n == 0
+            && w.units.n == 0
+        {
             // Every TP has halted; what remains in the memory system is drained by the caller.
             break;
         }
     }
     w.atomics.flush(chip, last);
     w.parked.flush(chip, last);
+    w.units.flush(chip);
     chip.completions = done;
     Ok(last)
 }

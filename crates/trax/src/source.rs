@@ -66,8 +66,22 @@ pub trait Source {
         let _ = (tp, tm, class, mem, t);
         None
     }
+    /// Accesses of `class` that the source refuses only while every one of a few units of
+    /// TM `tm` is busy (STRaTA's triangle pipelines): `Some((units, free_at, stall))` if the
+    /// TM has `units` of them, the first frees at `free_at`, and a refused TP's cycles until
+    /// then are a stall of `stall`; `free_at` is the retry cycle of a refusal at `t`. The
+    /// fast engine then queues refused TPs per TM and, when a unit frees, offers only the
+    /// first `units` of them (by key): the reference offers all of them, and the ones beyond
+    /// the free units are refused, changing nothing but counters, which are charged when
+    /// they are offered again ([`Source::refused_again`]). The answer may depend on `tm`,
+    /// `class`, `t` and the shared state, not on which TP asks; a unit frees only with time,
+    /// never through another access. `None` (the default): refused TPs retry on their own.
+    fn unit_wait(&self, tm: usize, class: Class, t: u64) -> Option<(u32, u64, Stall)> {
+        let _ = (tm, class, t);
+        None
+    }
     /// Charge `n` refusals of TP `tp`'s access that the fast engine skipped (see
-    /// [`Source::still_refused`]).
+    /// [`Source::still_refused`] and [`Source::unit_wait`]).
     fn refused_again(&mut self, tp: usize, class: Class, mem: Mem, n: u64) {
         let _ = (tp, class, mem, n);
     }
