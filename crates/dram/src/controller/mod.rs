@@ -52,6 +52,10 @@ pub struct Channel {
     /// FCFS; PRE behind a row hit without row-hit protection). Used only when `use_alts`.
     alts: Offers,
     use_alts: bool,
+    /// An appended request can change its bank's offer only in the ways
+    /// [`Channel::append_keeps_offer`] checks: no alternatives, no command queues, and not
+    /// `write_drain = mixed` (whose merged list an appended request may enter in the middle).
+    append_checked: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
     /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 4 + k`, kept
@@ -110,6 +114,10 @@ impl Channel {
             offers: Offers::new(banks, o.banks_per_group as usize),
             alts: Offers::new(banks, o.banks_per_group as usize),
             use_alts: !ctl.protect_row_hits || ctl.scheduler == SchedulerKind::UsimmFcfs,
+            append_checked: ctl.protect_row_hits
+                && ctl.scheduler != SchedulerKind::UsimmFcfs
+                && ctl.command_queue_depth == 0
+                && ctl.write_drain != WriteDrainKind::Mixed,
             merged_list: Vec::with_capacity(
                 (ctl.read_queue + ctl.write_queue) as usize
                     + banks * ctl.command_queue_depth as usize,
@@ -290,7 +298,12 @@ impl Channel {
         let e = *self.q.get(slot);
         self.last_busy[e.rank as usize] = t;
         match self.q.admit(slot) {
-            Admit::Queued => self.mark_dirty(e.bank as usize),
+            Admit::Queued => {
+                let b = e.bank as usize;
+                if !self.append_keeps_offer(b, slot, e.op) {
+                    self.mark_dirty(b);
+                }
+            }
             Admit::Staged => {}
             Admit::Merged(_) => match e.op {
                 MemOp::Read => self.stats.reads_merged += 1,
@@ -304,6 +317,31 @@ impl Channel {
         }
         self.stats.read_queue_max = self.stats.read_queue_max.max(self.q.reads_arrived.into());
         self.stats.write_queue_max = self.stats.write_queue_max.max(self.q.writes_arrived.into());
+    }
+
+    /// Does bank `b` offer the same as before `slot` (of kind `op`) was appended to its list?
+    /// Without alternatives, command queues or mixed drain (`append_checked`), a bank's offer
+    /// is a function of the first request of its served list, its open row, the oldest request
+    /// of each list hitting that row, and the request its last PRE was for
+    /// (`BankSched::pre_target`). An appended request is the last of its list: when the list
+    /// already held a request, it changes none of these unless it hits the open row or, at a
+    /// closed bank, is the PRE's request; and a hit changes nothing where the bank already
+    /// offers the column command of an older hit of the served kind. Otherwise the bank is
+    /// recomputed as before.
+    #[inline]
+    fn append_keeps_offer(&self, b: usize, slot: u32, op: MemOp) -> bool {
+        if !self.append_checked || self.q.bank_list(op, b).len() < 2 {
+            return false;
+        }
+        let open_row = self.engine.open_row(b);
+        if open_row == CLOSED {
+            return slot != self.sched[b].pre_target;
+        }
+        if self.q.row(slot) != open_row {
+            return true;
+        }
+        let served_column = if self.write_mode { Cmd::Wr } else { Cmd::Rd };
+        !self.dirty[b] && self.offers.offers_command(b, served_column)
     }
 
     #[inline]
@@ -989,6 +1027,12 @@ impl Offers {
             }
             None => OfferSlot::NONE,
         };
+    }
+
+    /// Does bank `b` offer `cmd`?
+    #[inline]
+    fn offers_command(&self, b: usize, cmd: Cmd) -> bool {
+        self.slots[b].local != u64::MAX && self.cand[b].cmd == cmd
     }
 
     /// The earliest ready time of any offer (`u64::MAX` if none): one look per calendar entry.
