@@ -52,10 +52,11 @@ pub struct Channel {
     /// FCFS; PRE behind a row hit without row-hit protection). Used only when `use_alts`.
     alts: Offers,
     use_alts: bool,
-    /// An appended request can change its bank's offer only in the ways
-    /// [`Channel::append_keeps_offer`] checks: no alternatives, no command queues, and not
-    /// `write_drain = mixed` (whose merged list an appended request may enter in the middle).
-    append_checked: bool,
+    /// No alternatives, no command queues, and not `write_drain = mixed` (whose merged list an
+    /// appended request may enter in the middle): then an appended request changes its bank's
+    /// offer only in the ways [`Channel::append_keeps_offer`] checks, and an ACT or PRE leaves
+    /// the offer [`Channel::offer_after`] names.
+    direct_offers: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
     /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 4 + k`, kept
@@ -114,7 +115,7 @@ impl Channel {
             offers: Offers::new(banks, o.banks_per_group as usize),
             alts: Offers::new(banks, o.banks_per_group as usize),
             use_alts: !ctl.protect_row_hits || ctl.scheduler == SchedulerKind::UsimmFcfs,
-            append_checked: ctl.protect_row_hits
+            direct_offers: ctl.protect_row_hits
                 && ctl.scheduler != SchedulerKind::UsimmFcfs
                 && ctl.command_queue_depth == 0
                 && ctl.write_drain != WriteDrainKind::Mixed,
@@ -320,7 +321,7 @@ impl Channel {
     }
 
     /// Does bank `b` offer the same as before `slot` (of kind `op`) was appended to its list?
-    /// Without alternatives, command queues or mixed drain (`append_checked`), a bank's offer
+    /// Without alternatives, command queues or mixed drain (`direct_offers`), a bank's offer
     /// is a function of the first request of its served list, its open row, the oldest request
     /// of each list hitting that row, and the request its last PRE was for
     /// (`BankSched::pre_target`). An appended request is the last of its list: when the list
@@ -330,7 +331,7 @@ impl Channel {
     /// recomputed as before.
     #[inline]
     fn append_keeps_offer(&self, b: usize, slot: u32, op: MemOp) -> bool {
-        if !self.append_checked || self.q.bank_list(op, b).len() < 2 {
+        if !self.direct_offers || self.q.bank_list(op, b).len() < 2 {
             return false;
         }
         let open_row = self.engine.open_row(b);
@@ -342,6 +343,33 @@ impl Channel {
         }
         let served_column = if self.write_mode { Cmd::Wr } else { Cmd::Rd };
         !self.dirty[b] && self.offers.offers_command(b, served_column)
+    }
+
+    /// The offer of bank `b` right after `cmd` was issued there for the request in `slot`, where
+    /// it follows from the command (`direct_offers`, a request's command, rank not blocked, the
+    /// request first of the served list — the list's oldest request, which is where the
+    /// scheduler's ACT and PRE come from): after a PRE, the ACT for the same request (the PRE's
+    /// request is the bank's `pre_target`); after an ACT, that request's column command (the
+    /// first request hits the row just opened). `None`: recompute from the lists.
+    #[inline]
+    fn offer_after(&self, cmd: Cmd, b: usize, slot: u32) -> Option<Candidate> {
+        if !self.direct_offers
+            || !matches!(cmd, Cmd::Act | Cmd::Pre)
+            || slot == NIL
+            || self.rank_blocked(b >> self.rank_shift)
+            || self.q.bank_list(self.served_op(), b).first() != Some(&slot)
+        {
+            return None;
+        }
+        Some(if cmd == Cmd::Pre {
+            Candidate::for_request(&self.q, Cmd::Act, slot, false)
+        } else {
+            let column = match self.q.get(slot).op {
+                MemOp::Read => Cmd::Rd,
+                MemOp::Write => Cmd::Wr,
+            };
+            Candidate::for_request(&self.q, column, slot, true)
+        })
     }
 
     #[inline]
@@ -696,7 +724,13 @@ impl Channel {
                 self.mark_rank_dirty(rank);
             }
         }
-        self.mark_dirty(b);
+        match self.offer_after(cmd, b, c.slot) {
+            Some(o) if !self.dirty[b] => {
+                self.offers
+                    .set(b, Some(o), self.ctl.scheduler, &self.engine);
+            }
+            _ => self.mark_dirty(b),
+        }
         self.update_shared(self.engine.shared_raise(cmd));
         self.settle_candidates();
     }
