@@ -259,13 +259,20 @@ impl Channel {
 
     fn step(&mut self, t: u64) {
         self.integrate_occupancy(t);
+        let mut admitted = false;
         while let Some(slot) = self.q.pop_arrived(t) {
             self.admit(slot, t);
+            admitted = true;
         }
         if self.refresh.poll(t) {
             self.mark_all_dirty();
         }
-        self.update_mode(t);
+        // The drain mode depends only on the numbers of arrived reads and writes, which change
+        // only by admitting (here) and serving (followed by `update_mode` below): without an
+        // admission the mode is already current.
+        if admitted {
+            self.update_mode(t);
+        }
         if self.ctl.command_queue_depth > 0 {
             // One request per cycle into its bank's command queue: writes while draining.
             if let Some(b) = self.q.transfer(self.served_op()) {
