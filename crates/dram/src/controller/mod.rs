@@ -54,7 +54,7 @@ pub struct Channel {
     use_alts: bool,
     /// No alternatives, no command queues, and not `write_drain = mixed` (whose merged list an
     /// appended request may enter in the middle): then an appended request changes its bank's
-    /// offer only in the ways [`Channel::append_keeps_offer`] checks, and an ACT or PRE leaves
+    /// offer only in the ways [`Channel::append_keeps_offer`] checks, and a command often leaves
     /// the offer [`Channel::offer_after`] names.
     direct_offers: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
@@ -352,31 +352,36 @@ impl Channel {
         !self.dirty[b] && self.offers.offers_command(b, served_column)
     }
 
-    /// The offer of bank `b` right after `cmd` was issued there for the request in `slot`, where
-    /// it follows from the command (`direct_offers`, a request's command, rank not blocked, the
-    /// request first of the served list — the list's oldest request, which is where the
-    /// scheduler's ACT and PRE come from): after a PRE, the ACT for the same request (the PRE's
-    /// request is the bank's `pre_target`); after an ACT, that request's column command (the
-    /// first request hits the row just opened). `None`: recompute from the lists.
+    /// The offer of bank `b` right after `cmd` was issued there (for the request in `slot`),
+    /// where it follows from the command and the first request of the served list — its oldest,
+    /// where the scheduler's ACT and PRE come from (`direct_offers`, rank not blocked):
+    /// - after a PRE for the first request, the ACT for it (the bank's `pre_target`);
+    /// - after an ACT for the first request, its column command (it hits the row just opened);
+    /// - after a column command that leaves the row open, the column command of the first
+    ///   request if that hits the row (an open bank whose oldest request hits offers that).
+    ///
+    /// `None`: recompute from the lists.
     #[inline]
     fn offer_after(&self, cmd: Cmd, b: usize, slot: u32) -> Option<Candidate> {
-        if !self.direct_offers
-            || !matches!(cmd, Cmd::Act | Cmd::Pre)
-            || slot == NIL
-            || self.rank_blocked(b >> self.rank_shift)
-            || self.q.bank_list(self.served_op(), b).first() != Some(&slot)
-        {
+        if !self.direct_offers {
             return None;
         }
-        Some(if cmd == Cmd::Pre {
-            Candidate::for_request(&self.q, Cmd::Act, slot, false)
-        } else {
-            let column = match self.q.get(slot).op {
-                MemOp::Read => Cmd::Rd,
-                MemOp::Write => Cmd::Wr,
-            };
-            Candidate::for_request(&self.q, column, slot, true)
-        })
+        let list = self.q.bank_list(self.served_op(), b);
+        let &first = list.first()?;
+        let column = || match self.q.get(first).op {
+            MemOp::Read => Cmd::Rd,
+            MemOp::Write => Cmd::Wr,
+        };
+        let (offer, hit) = match cmd {
+            Cmd::Pre if first == slot => (Cmd::Act, false),
+            Cmd::Act if first == slot => (column(), true),
+            Cmd::Rd | Cmd::Wr if self.q.row(first) == self.engine.open_row(b) => (column(), true),
+            _ => return None,
+        };
+        if self.rank_blocked(b >> self.rank_shift) {
+            return None;
+        }
+        Some(Candidate::for_request(&self.q, offer, first, hit))
     }
 
     #[inline]
