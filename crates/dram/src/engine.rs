@@ -58,7 +58,9 @@ struct Window {
 pub struct Engine {
     ranks: usize,
     banks_per_rank: usize,
-    groups_per_rank: usize,
+    /// log2(bank groups per rank), a power of two (`config::Organisation`): a group's rank is
+    /// a shift.
+    group_shift: u32,
     /// Delays by issued command (RDA also gets RD's rules, WRA WR's), window rules excluded.
     by_prev: Vec<Delays>,
     windows: Vec<Window>,
@@ -148,7 +150,7 @@ impl Engine {
             shared_raise,
             ranks,
             banks_per_rank,
-            groups_per_rank: o.bank_groups as usize,
+            group_shift: o.bank_groups.trailing_zeros(),
             by_prev,
             windows,
             bank_next: vec![[0; BK]; ranks * banks_per_rank],
@@ -215,7 +217,7 @@ impl Engine {
     /// [`Engine::shared_raise`].
     #[inline(always)]
     pub fn group_ready(&self, k: usize, g: usize) -> u64 {
-        self.group_next[g][k].max(self.rank_next[g / self.groups_per_rank][k])
+        self.group_next[g][k].max(self.rank_next[g >> self.group_shift][k])
     }
 
     /// Flat bank-group index (rank × groups per rank + group) of flat bank `b`.

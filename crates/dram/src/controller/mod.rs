@@ -750,11 +750,13 @@ impl Channel {
     /// Bring the calendar's entries of the kinds in `mask` (bit `1 << kind`) up to date.
     #[inline]
     fn update_shared(&mut self, mask: u8) {
-        for k in 0..BANK_KINDS {
-            if mask & (1 << k) != 0 {
-                for g in 0..self.engine.groups() {
-                    self.shared[g * SHARED_STRIDE + k] = self.engine.group_ready(k, g);
-                }
+        // The bank kinds' bits, one at a time (a command raises one or two).
+        let mut kinds = mask & ((1 << BANK_KINDS) - 1);
+        while kinds != 0 {
+            let k = kinds.trailing_zeros() as usize;
+            kinds &= kinds - 1;
+            for g in 0..self.engine.groups() {
+                self.shared[(g * SHARED_STRIDE + k) % CALENDAR_LEN] = self.engine.group_ready(k, g);
             }
         }
     }
