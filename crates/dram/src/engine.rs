@@ -140,11 +140,21 @@ impl Engine {
             shared_raise[Cmd::Act as usize] |= 1 << Cmd::Act.kind();
         }
         for d in &mut by_prev {
-            let any = |a: &[u32]| a.iter().any(|&x| x != 0);
-            d.scopes = u8::from(any(&d.bank)) * SCOPE_BANK
-                | u8::from(any(&d.group)) * SCOPE_GROUP
-                | u8::from(any(&d.rank)) * SCOPE_RANK
-                | u8::from(ranks > 1 && any(&d.other_ranks)) * SCOPE_OTHER_RANKS;
+            let bit = |delays: &[u32], scope: u8| {
+                if delays.iter().any(|&x| x != 0) {
+                    scope
+                } else {
+                    0
+                }
+            };
+            d.scopes = bit(&d.bank, SCOPE_BANK)
+                | bit(&d.group, SCOPE_GROUP)
+                | bit(&d.rank, SCOPE_RANK)
+                | if ranks > 1 {
+                    bit(&d.other_ranks, SCOPE_OTHER_RANKS)
+                } else {
+                    0
+                };
         }
         Engine {
             shared_raise,
