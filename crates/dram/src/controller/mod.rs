@@ -330,8 +330,9 @@ impl Channel {
     /// Does bank `b` offer the same as before `slot` (of kind `op`) was appended to its list?
     /// Without alternatives, command queues or mixed drain (`direct_offers`), a bank's offer
     /// is a function of the first request of its served list, its open row, the oldest request
-    /// of each list hitting that row, and the request its last PRE was for
-    /// (`BankSched::pre_target`). An appended request is the last of its list: when the list
+    /// of each list hitting that row, and its scheduler state (`BankSched`: the row-hit streak,
+    /// which admitting does not change, and the request its last PRE was for). An appended
+    /// request is the last of its list: when the list
     /// already held a request, it changes none of these unless it hits the open row or, at a
     /// closed bank, is the PRE's request; and a hit changes nothing where the bank already
     /// offers the column command of an older hit of the served kind. Otherwise the bank is
