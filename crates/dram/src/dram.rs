@@ -20,51 +20,29 @@ use crate::spec::{DramSpec, Requester};
 use crate::stats::DramStats;
 use rtsim_config::ConfigError;
 use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort, QueueFull};
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
+use std::collections::VecDeque;
 
 /// Requester cycles beyond this are clamped (2^52: ~52 days at 1 GHz), so that conversions
 /// between clocks (ratios up to 1024 : 1) stay within 64 bits.
 pub const MAX_CYCLE: u64 = 1 << 52;
-
-/// A completion waiting for the requester to reach its finish cycle.
-#[derive(Clone, Copy, Debug)]
-struct Ready {
-    seq: u64,
-    c: MemCompletion,
-}
-
-impl PartialEq for Ready {
-    fn eq(&self, o: &Self) -> bool {
-        self.cmp(o) == Ordering::Equal
-    }
-}
-impl Eq for Ready {}
-impl PartialOrd for Ready {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Ready {
-    /// Reversed: the heap's top is the earliest finish (then the earliest produced).
-    fn cmp(&self, o: &Self) -> Ordering {
-        (o.c.finish, o.seq).cmp(&(self.c.finish, self.seq))
-    }
-}
 
 /// The DRAM model: controllers and devices of every channel.
 #[derive(Debug)]
 pub struct Dram {
     spec: DramSpec,
     channels: Vec<Channel>,
-    ready: BinaryHeap<Ready>,
+    /// Completions waiting for the requester to reach their finish cycle, in order of finish
+    /// and, among equal finishes, of collection. Completions are collected nearly in finish
+    /// order (a channel's come after a command plus a fixed latency, and each `advance_to`
+    /// covers a short span), so each is put in place by a short search from the back, and the
+    /// requester takes them from the front.
+    ready: VecDeque<MemCompletion>,
     /// Last requester cycle advanced to.
     now_req: Option<u64>,
     /// Memory cycles below this are simulated.
     mem_done: u64,
     outstanding: usize,
     seq: u64,
-    done_seq: u64,
 }
 
 impl Dram {
@@ -84,12 +62,11 @@ impl Dram {
         Dram {
             spec,
             channels,
-            ready: BinaryHeap::with_capacity(cap),
+            ready: VecDeque::with_capacity(cap),
             now_req: None,
             mem_done: 0,
             outstanding: 0,
             seq: 0,
-            done_seq: 0,
         }
     }
 
@@ -124,11 +101,17 @@ impl Dram {
                 continue;
             }
             for c in ch.done.drain(..) {
-                self.done_seq += 1;
-                self.ready.push(Ready {
-                    seq: self.done_seq,
-                    c,
-                });
+                // After every completion finishing no later: (finish, collection order).
+                if self.ready.back().is_none_or(|r| r.finish <= c.finish) {
+                    self.ready.push_back(c);
+                } else {
+                    let at = self
+                        .ready
+                        .iter()
+                        .rposition(|r| r.finish <= c.finish)
+                        .map_or(0, |i| i + 1);
+                    self.ready.insert(at, c);
+                }
             }
         }
     }
@@ -293,7 +276,7 @@ impl MemoryPort for Dram {
         if self.outstanding == 0 {
             return None;
         }
-        let ready = self.ready.peek().map_or(u64::MAX, |r| r.c.finish);
+        let ready = self.ready.front().map_or(u64::MAX, |r| r.finish);
         let m = self
             .channels
             .iter()
@@ -306,12 +289,12 @@ impl MemoryPort for Dram {
 
     fn drain_completions(&mut self, out: &mut Vec<MemCompletion>) {
         let Some(now) = self.now_req else { return };
-        while let Some(r) = self.ready.peek() {
-            if r.c.finish > now {
+        while let Some(&c) = self.ready.front() {
+            if c.finish > now {
                 break;
             }
-            out.push(r.c);
-            self.ready.pop();
+            out.push(c);
+            self.ready.pop_front();
             self.outstanding -= 1;
         }
     }

@@ -22,15 +22,25 @@ const BK: usize = 4;
 
 /// The delays one issued command imposes, by scope and next-command kind (0 = none): the
 /// table's rules for that command folded together (the largest delay per scope and kind), so
-/// that issuing is a fixed pass over a few short arrays.
+/// that issuing is a fixed pass over a few short arrays. A channel rule is the same rule for
+/// the issuing rank and every other rank, so it is folded into `rank` and `other_ranks`; with
+/// one bank group per rank, a bank-group rule is a rank rule and is folded into `rank`. The
+/// earliest times are maxima over the scopes, so folding changes none of them.
 #[derive(Clone, Copy, Debug, Default)]
 struct Delays {
     bank: [u32; BK],
     group: [u32; BK],
     rank: [u32; K],
     other_ranks: [u32; K],
-    channel: [u32; K],
+    /// The arrays above holding a delay (`SCOPE_*` bits): issuing skips the others.
+    scopes: u8,
 }
+
+/// [`Delays::scopes`] bits.
+const SCOPE_BANK: u8 = 1;
+const SCOPE_GROUP: u8 = 2;
+const SCOPE_RANK: u8 = 4;
+const SCOPE_OTHER_RANKS: u8 = 8;
 
 /// An activation window: at most `window` ACTs in any `cycles` cycles of one rank.
 #[derive(Clone, Debug)]
@@ -48,14 +58,16 @@ struct Window {
 pub struct Engine {
     ranks: usize,
     banks_per_rank: usize,
-    groups_per_rank: usize,
+    /// log2(bank groups per rank), a power of two (`config::Organisation`): a group's rank is
+    /// a shift.
+    group_shift: u32,
     /// Delays by issued command (RDA also gets RD's rules, WRA WR's), window rules excluded.
     by_prev: Vec<Delays>,
     windows: Vec<Window>,
     bank_next: Vec<[u64; BK]>,
     group_next: Vec<[u64; BK]>,
+    /// Rank-level earliest times, channel rules included (folded into every rank's).
     rank_next: Vec<[u64; K]>,
-    chan_next: [u64; K],
     /// For each issued command, a bit per next-command kind whose earliest time it can raise
     /// beyond its own bank (bank group, rank, other ranks, channel, activation windows).
     shared_raise: Vec<u8>,
@@ -108,14 +120,18 @@ impl Engine {
             for issued in Cmd::ALL {
                 if c.prev.covers(issued) {
                     let d = &mut by_prev[issued as usize];
-                    let slot = match c.scope {
-                        Scope::Bank => &mut d.bank[k],
-                        Scope::BankGroup => &mut d.group[k],
-                        Scope::Rank => &mut d.rank[k],
-                        Scope::OtherRanks => &mut d.other_ranks[k],
-                        Scope::Channel => &mut d.channel[k],
-                    };
-                    *slot = (*slot).max(cycles);
+                    let fold = |slot: &mut u32| *slot = (*slot).max(cycles);
+                    match c.scope {
+                        Scope::Bank => fold(&mut d.bank[k]),
+                        Scope::BankGroup if o.bank_groups == 1 => fold(&mut d.rank[k]),
+                        Scope::BankGroup => fold(&mut d.group[k]),
+                        Scope::Rank => fold(&mut d.rank[k]),
+                        Scope::OtherRanks => fold(&mut d.other_ranks[k]),
+                        Scope::Channel => {
+                            fold(&mut d.rank[k]);
+                            fold(&mut d.other_ranks[k]);
+                        }
+                    }
                     shared_raise[issued as usize] |= shared_raise_bits;
                 }
             }
@@ -123,17 +139,33 @@ impl Engine {
         if !windows.is_empty() {
             shared_raise[Cmd::Act as usize] |= 1 << Cmd::Act.kind();
         }
+        for d in &mut by_prev {
+            let bit = |delays: &[u32], scope: u8| {
+                if delays.iter().any(|&x| x != 0) {
+                    scope
+                } else {
+                    0
+                }
+            };
+            d.scopes = bit(&d.bank, SCOPE_BANK)
+                | bit(&d.group, SCOPE_GROUP)
+                | bit(&d.rank, SCOPE_RANK)
+                | if ranks > 1 {
+                    bit(&d.other_ranks, SCOPE_OTHER_RANKS)
+                } else {
+                    0
+                };
+        }
         Engine {
             shared_raise,
             ranks,
             banks_per_rank,
-            groups_per_rank: o.bank_groups as usize,
+            group_shift: o.bank_groups.trailing_zeros(),
             by_prev,
             windows,
             bank_next: vec![[0; BK]; ranks * banks_per_rank],
             group_next: vec![[0; BK]; ranks * o.bank_groups as usize],
             rank_next: vec![[0; K]; ranks],
-            chan_next: [0; K],
             rank_of: (0..ranks * banks_per_rank)
                 .map(|b| (b / banks_per_rank) as u32)
                 .collect(),
@@ -164,7 +196,7 @@ impl Engine {
     pub fn earliest(&self, cmd: Cmd, b: usize) -> u64 {
         let k = cmd.kind();
         let rank = self.rank_of[b] as usize;
-        let mut t = self.rank_next[rank][k].max(self.chan_next[k]);
+        let mut t = self.rank_next[rank][k];
         if !cmd.is_rank_command() {
             t = t
                 .max(self.bank_next[b][k])
@@ -177,7 +209,6 @@ impl Engine {
     #[inline(always)]
     pub fn earliest_bank(&self, k: usize, b: usize) -> u64 {
         self.rank_next[self.rank_of[b] as usize][k]
-            .max(self.chan_next[k])
             .max(self.bank_next[b][k])
             .max(self.group_next[self.group_of[b] as usize][k])
     }
@@ -196,9 +227,7 @@ impl Engine {
     /// [`Engine::shared_raise`].
     #[inline(always)]
     pub fn group_ready(&self, k: usize, g: usize) -> u64 {
-        self.group_next[g][k]
-            .max(self.rank_next[g / self.groups_per_rank][k])
-            .max(self.chan_next[k])
+        self.group_next[g][k].max(self.rank_next[g >> self.group_shift][k])
     }
 
     /// Flat bank-group index (rank × groups per rank + group) of flat bank `b`.
@@ -245,11 +274,16 @@ impl Engine {
         let rank = self.rank_of[b] as usize;
         let group = self.group_of[b] as usize;
         let d = &self.by_prev[cmd as usize];
-        raise_all(&mut self.bank_next[b], &d.bank, t);
-        raise_all(&mut self.group_next[group], &d.group, t);
-        raise_all(&mut self.rank_next[rank], &d.rank, t);
-        raise_all(&mut self.chan_next, &d.channel, t);
-        if self.ranks > 1 {
+        if d.scopes & SCOPE_BANK != 0 {
+            raise_all(&mut self.bank_next[b], &d.bank, t);
+        }
+        if d.scopes & SCOPE_GROUP != 0 {
+            raise_all(&mut self.group_next[group], &d.group, t);
+        }
+        if d.scopes & SCOPE_RANK != 0 {
+            raise_all(&mut self.rank_next[rank], &d.rank, t);
+        }
+        if d.scopes & SCOPE_OTHER_RANKS != 0 {
             for r in (0..self.ranks).filter(|&r| r != rank) {
                 raise_all(&mut self.rank_next[r], &d.other_ranks, t);
             }

@@ -52,6 +52,11 @@ pub struct Channel {
     /// FCFS; PRE behind a row hit without row-hit protection). Used only when `use_alts`.
     alts: Offers,
     use_alts: bool,
+    /// No alternatives, no command queues, and not `write_drain = mixed` (whose merged list an
+    /// appended request may enter in the middle): then an appended request changes its bank's
+    /// offer only in the ways [`Channel::append_keeps_offer`] checks, and a command often leaves
+    /// the offer [`Channel::offer_after`] names.
+    direct_offers: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
     /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 4 + k`, kept
@@ -110,6 +115,10 @@ impl Channel {
             offers: Offers::new(banks, o.banks_per_group as usize),
             alts: Offers::new(banks, o.banks_per_group as usize),
             use_alts: !ctl.protect_row_hits || ctl.scheduler == SchedulerKind::UsimmFcfs,
+            direct_offers: ctl.protect_row_hits
+                && ctl.scheduler != SchedulerKind::UsimmFcfs
+                && ctl.command_queue_depth == 0
+                && ctl.write_drain != WriteDrainKind::Mixed,
             merged_list: Vec::with_capacity(
                 (ctl.read_queue + ctl.write_queue) as usize
                     + banks * ctl.command_queue_depth as usize,
@@ -250,13 +259,20 @@ impl Channel {
 
     fn step(&mut self, t: u64) {
         self.integrate_occupancy(t);
+        let mut admitted = false;
         while let Some(slot) = self.q.pop_arrived(t) {
             self.admit(slot, t);
+            admitted = true;
         }
         if self.refresh.poll(t) {
             self.mark_all_dirty();
         }
-        self.update_mode(t);
+        // The drain mode depends only on the numbers of arrived reads and writes, which change
+        // only by admitting (here) and serving (followed by `update_mode` below): without an
+        // admission the mode is already current.
+        if admitted {
+            self.update_mode(t);
+        }
         if self.ctl.command_queue_depth > 0 {
             // One request per cycle into its bank's command queue: writes while draining.
             if let Some(b) = self.q.transfer(self.served_op()) {
@@ -290,7 +306,12 @@ impl Channel {
         let e = *self.q.get(slot);
         self.last_busy[e.rank as usize] = t;
         match self.q.admit(slot) {
-            Admit::Queued => self.mark_dirty(e.bank as usize),
+            Admit::Queued => {
+                let b = e.bank as usize;
+                if !self.append_keeps_offer(b, slot, e.op) {
+                    self.mark_dirty(b);
+                }
+            }
             Admit::Staged => {}
             Admit::Merged(_) => match e.op {
                 MemOp::Read => self.stats.reads_merged += 1,
@@ -304,6 +325,64 @@ impl Channel {
         }
         self.stats.read_queue_max = self.stats.read_queue_max.max(self.q.reads_arrived.into());
         self.stats.write_queue_max = self.stats.write_queue_max.max(self.q.writes_arrived.into());
+    }
+
+    /// Does bank `b` offer the same as before `slot` (of kind `op`) was appended to its list?
+    /// Without alternatives, command queues or mixed drain (`direct_offers`), a bank's offer
+    /// is a function of the first request of its served list, its open row, the oldest request
+    /// of each list hitting that row, and its scheduler state (`BankSched`: the row-hit streak,
+    /// which admitting does not change, and the request its last PRE was for). An appended
+    /// request is the last of its list: when the list
+    /// already held a request, it changes none of these unless it hits the open row or, at a
+    /// closed bank, is the PRE's request; and a hit changes nothing where the bank already
+    /// offers the column command of an older hit of the served kind. Otherwise the bank is
+    /// recomputed as before.
+    #[inline]
+    fn append_keeps_offer(&self, b: usize, slot: u32, op: MemOp) -> bool {
+        if !self.direct_offers || self.q.bank_list(op, b).len() < 2 {
+            return false;
+        }
+        let open_row = self.engine.open_row(b);
+        if open_row == CLOSED {
+            return slot != self.sched[b].pre_target;
+        }
+        if self.q.row(slot) != open_row {
+            return true;
+        }
+        let served_column = if self.write_mode { Cmd::Wr } else { Cmd::Rd };
+        !self.dirty[b] && self.offers.offers_command(b, served_column)
+    }
+
+    /// The offer of bank `b` right after `cmd` was issued there (for the request in `slot`),
+    /// where it follows from the command and the first request of the served list — its oldest,
+    /// where the scheduler's ACT and PRE come from (`direct_offers`, rank not blocked):
+    /// - after a PRE for the first request, the ACT for it (the bank's `pre_target`);
+    /// - after an ACT for the first request, its column command (it hits the row just opened);
+    /// - after a column command that leaves the row open, the column command of the first
+    ///   request if that hits the row (an open bank whose oldest request hits offers that).
+    ///
+    /// `None`: recompute from the lists.
+    #[inline]
+    fn offer_after(&self, cmd: Cmd, b: usize, slot: u32) -> Option<Candidate> {
+        if !self.direct_offers {
+            return None;
+        }
+        let list = self.q.bank_list(self.served_op(), b);
+        let &first = list.first()?;
+        let column = || match self.q.get(first).op {
+            MemOp::Read => Cmd::Rd,
+            MemOp::Write => Cmd::Wr,
+        };
+        let (offer, hit) = match cmd {
+            Cmd::Pre if first == slot => (Cmd::Act, false),
+            Cmd::Act if first == slot => (column(), true),
+            Cmd::Rd | Cmd::Wr if self.q.row(first) == self.engine.open_row(b) => (column(), true),
+            _ => return None,
+        };
+        if self.rank_blocked(b >> self.rank_shift) {
+            return None;
+        }
+        Some(Candidate::for_request(&self.q, offer, first, hit))
     }
 
     #[inline]
@@ -658,7 +737,13 @@ impl Channel {
                 self.mark_rank_dirty(rank);
             }
         }
-        self.mark_dirty(b);
+        match self.offer_after(cmd, b, c.slot) {
+            Some(o) if !self.dirty[b] => {
+                self.offers
+                    .set(b, Some(o), self.ctl.scheduler, &self.engine);
+            }
+            _ => self.mark_dirty(b),
+        }
         self.update_shared(self.engine.shared_raise(cmd));
         self.settle_candidates();
     }
@@ -666,11 +751,13 @@ impl Channel {
     /// Bring the calendar's entries of the kinds in `mask` (bit `1 << kind`) up to date.
     #[inline]
     fn update_shared(&mut self, mask: u8) {
-        for k in 0..BANK_KINDS {
-            if mask & (1 << k) != 0 {
-                for g in 0..self.engine.groups() {
-                    self.shared[g * SHARED_STRIDE + k] = self.engine.group_ready(k, g);
-                }
+        // The bank kinds' bits, one at a time (a command raises one or two).
+        let mut kinds = mask & ((1 << BANK_KINDS) - 1);
+        while kinds != 0 {
+            let k = kinds.trailing_zeros() as usize;
+            kinds &= kinds - 1;
+            for g in 0..self.engine.groups() {
+                self.shared[(g * SHARED_STRIDE + k) % CALENDAR_LEN] = self.engine.group_ready(k, g);
             }
         }
     }
@@ -989,6 +1076,12 @@ impl Offers {
             }
             None => OfferSlot::NONE,
         };
+    }
+
+    /// Does bank `b` offer `cmd`?
+    #[inline]
+    fn offers_command(&self, b: usize, cmd: Cmd) -> bool {
+        self.slots[b].local != u64::MAX && self.cand[b].cmd == cmd
     }
 
     /// The earliest ready time of any offer (`u64::MAX` if none): one look per calendar entry.

@@ -108,6 +108,11 @@ pub struct RequestQueues {
     staged_writes: VecDeque<u32>,
     /// Requests in command queues.
     in_cq: u32,
+    /// The listed and staged reads and writes by line, for merging and forwarding: lookups
+    /// without scanning a bank's list (a stream queues all its requests at one bank). `None`
+    /// where that kind is never looked up.
+    read_lines: Option<LineIndex>,
+    write_lines: Option<LineIndex>,
 }
 
 impl RequestQueues {
@@ -153,6 +158,8 @@ impl RequestQueues {
             staged_reads: VecDeque::with_capacity(policy.read_capacity as usize),
             staged_writes: VecDeque::with_capacity(policy.write_capacity as usize),
             in_cq: 0,
+            read_lines: policy.merge_reads.then(|| LineIndex::new(cap)),
+            write_lines: (policy.merge_writes || policy.forward_reads).then(|| LineIndex::new(cap)),
         }
     }
 
@@ -228,22 +235,13 @@ impl RequestQueues {
         }
     }
 
-    /// A queued request of kind `op` at flat bank `b` for line `addr`, in the bank's lists or
-    /// waiting for its command queue.
-    fn find_line(&self, op: MemOp, b: usize, addr: u64) -> Option<u32> {
-        let (list, staged) = match op {
-            MemOp::Read => (&self.reads[b], &self.staged_reads),
-            MemOp::Write => (&self.writes[b], &self.staged_writes),
-        };
-        let same = |&s: &u32| self.slab[s as usize].addr == addr;
-        let found = list.iter().copied().find(same);
-        if found.is_some() || self.policy.command_queue_depth == 0 {
-            return found;
+    /// The line index of kind `op` (present where that kind is looked up).
+    #[inline]
+    fn lines(&mut self, op: MemOp) -> Option<&mut LineIndex> {
+        match op {
+            MemOp::Read => self.read_lines.as_mut(),
+            MemOp::Write => self.write_lines.as_mut(),
         }
-        staged
-            .iter()
-            .copied()
-            .find(|&s| self.slab[s as usize].bank as usize == b && same(&s))
     }
 
     /// Command queues: move the oldest waiting request of kind `op` whose bank has room into
@@ -308,16 +306,23 @@ impl RequestQueues {
         let b = e.bank as usize;
         match e.op {
             MemOp::Read => {
-                if self.policy.forward_reads && self.find_line(MemOp::Write, b, e.addr).is_some() {
+                // A line's requests are all at one bank, so the line alone identifies them.
+                if self.policy.forward_reads
+                    && self
+                        .write_lines
+                        .as_ref()
+                        .is_some_and(|w| w.contains(e.addr))
+                {
                     return Admit::Forwarded;
                 }
                 self.reads_arrived += 1;
                 self.per_rank[e.rank as usize] += 1;
-                if self.policy.merge_reads {
-                    if let Some(host) = self.find_line(MemOp::Read, b, e.addr) {
-                        self.attach(host, slot);
-                        return Admit::Merged(host);
-                    }
+                if let Some(host) = self.read_lines.as_ref().and_then(|r| r.get(e.addr)) {
+                    self.attach(host, slot);
+                    return Admit::Merged(host);
+                }
+                if let Some(ix) = self.lines(MemOp::Read) {
+                    ix.insert(e.addr, slot);
                 }
                 if self.policy.command_queue_depth > 0 {
                     self.staged_reads.push_back(slot);
@@ -329,10 +334,13 @@ impl RequestQueues {
                 self.writes_arrived += 1;
                 self.per_rank[e.rank as usize] += 1;
                 if self.policy.merge_writes {
-                    if let Some(host) = self.find_line(MemOp::Write, b, e.addr) {
+                    if let Some(host) = self.write_lines.as_ref().and_then(|w| w.get(e.addr)) {
                         self.attach(host, slot);
                         return Admit::Merged(host);
                     }
+                }
+                if let Some(ix) = self.lines(MemOp::Write) {
+                    ix.insert(e.addr, slot);
                 }
                 if self.policy.command_queue_depth > 0 {
                     self.staged_writes.push_back(slot);
@@ -359,6 +367,10 @@ impl RequestQueues {
         };
         if let Some(i) = list.iter().position(|&s| s == slot) {
             list.remove(i);
+            let (op, addr) = (e.op, e.addr);
+            if let Some(ix) = self.lines(op) {
+                ix.remove(addr);
+            }
         }
     }
 
@@ -417,5 +429,160 @@ impl RequestQueues {
     /// Anything pending or queued?
     pub fn is_empty(&self) -> bool {
         self.occupied() == 0
+    }
+}
+
+/// Requests of one kind by line address: an open-addressing hash table (linear probing,
+/// deletion by backward shift), allocated once, at most half full. Each line has a count of
+/// its requests and the slot of one of them: where merging is on, a line has at most one
+/// listed or staged request (a second one merges into it), so the slot is that request's;
+/// otherwise only the count is used (forwarding asks whether a write to the line waits).
+#[derive(Clone, Debug)]
+struct LineIndex {
+    cells: Vec<LineCell>,
+    mask: usize,
+    /// 64 − log2(cells): the hash keeps the top bits of the product.
+    shift: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct LineCell {
+    addr: u64,
+    slot: u32,
+    /// Requests for `addr`; 0 = empty cell.
+    count: u32,
+}
+
+impl LineIndex {
+    /// Room for `max` lines.
+    fn new(max: usize) -> Self {
+        let size = (2 * max.max(1)).next_power_of_two();
+        LineIndex {
+            cells: vec![
+                LineCell {
+                    addr: 0,
+                    slot: NIL,
+                    count: 0,
+                };
+                size
+            ],
+            mask: size - 1,
+            shift: 64 - size.trailing_zeros(),
+        }
+    }
+
+    /// The home cell of `addr`: Fibonacci hashing (the product with 2^64 / φ, whose top bits
+    /// spread line addresses, multiples of the line size, evenly).
+    #[inline]
+    fn home(&self, addr: u64) -> usize {
+        (addr.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize
+    }
+
+    /// The cell of `addr`, or the empty cell ending its probe sequence.
+    #[inline]
+    fn find(&self, addr: u64) -> usize {
+        let mut i = self.home(addr);
+        loop {
+            let c = &self.cells[i];
+            if c.count == 0 || c.addr == addr {
+                return i;
+            }
+            i = (i + 1) & self.mask;
+        }
+    }
+
+    /// Is a request for `addr` indexed?
+    #[inline]
+    fn contains(&self, addr: u64) -> bool {
+        self.cells[self.find(addr)].count > 0
+    }
+
+    /// The request for `addr` (where merging keeps lines unique).
+    #[inline]
+    fn get(&self, addr: u64) -> Option<u32> {
+        let c = &self.cells[self.find(addr)];
+        debug_assert!(c.count <= 1, "merged lines are unique");
+        (c.count > 0).then_some(c.slot)
+    }
+
+    #[inline]
+    fn insert(&mut self, addr: u64, slot: u32) {
+        let i = self.find(addr);
+        let c = &mut self.cells[i];
+        if c.count == 0 {
+            *c = LineCell {
+                addr,
+                slot,
+                count: 1,
+            };
+        } else {
+            c.count += 1;
+        }
+    }
+
+    /// Forget one request for `addr` (indexed).
+    #[inline]
+    fn remove(&mut self, addr: u64) {
+        let mut hole = self.find(addr);
+        debug_assert!(self.cells[hole].count > 0);
+        self.cells[hole].count -= 1;
+        if self.cells[hole].count > 0 {
+            return;
+        }
+        // Close the gap: move back each later cell of the run that may live in the hole (its
+        // home is not cyclically after the hole).
+        let mut j = hole;
+        loop {
+            j = (j + 1) & self.mask;
+            let c = self.cells[j];
+            if c.count == 0 {
+                break;
+            }
+            let home = self.home(c.addr);
+            if j.wrapping_sub(home) & self.mask >= j.wrapping_sub(hole) & self.mask {
+                self.cells[hole] = c;
+                self.cells[j].count = 0;
+                hole = j;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LineIndex;
+    use std::collections::HashMap;
+
+    /// The index agrees with a counted map through inserts and removals that collide and wrap
+    /// around (a small table, addresses drawn from a few lines).
+    #[test]
+    fn line_index_matches_a_map() {
+        let mut ix = LineIndex::new(12);
+        let mut model: HashMap<u64, u32> = HashMap::new();
+        // A fixed-seed linear congruential sequence (Knuth's MMIX constants).
+        let mut x = 1u64;
+        let mut next = || {
+            x = x
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            x >> 33
+        };
+        for _ in 0..20_000 {
+            let addr = (next() % 40) * 64;
+            let n = model.get(&addr).copied().unwrap_or(0);
+            let held: u32 = model.values().sum();
+            if n > 0 && (next() % 2 == 0 || held >= 12) {
+                ix.remove(addr);
+                *model.get_mut(&addr).unwrap() -= 1;
+            } else if held < 12 {
+                ix.insert(addr, addr as u32);
+                *model.entry(addr).or_insert(0) += 1;
+            }
+            for line in 0..40 {
+                let a = line * 64;
+                let n = model.get(&a).copied().unwrap_or(0);
+                assert_eq!(ix.contains(a), n > 0, "line {line}");
+            }
+        }
     }
 }
