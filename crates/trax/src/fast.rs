@@ -314,6 +314,9 @@ struct Parked {
     keep: Vec<ParkedTp>,
     /// Scratch: the ones parked during a TM's run.
     spare: Vec<ParkedTp>,
+    /// Per TM: its parked TPs may offer different instructions (false: all offer the same,
+    /// so they ask the same question). Conservative: cleared only when the TM has none.
+    mixed: Vec<bool>,
     /// Scratch: TPs offered again and accepted this cycle (they resume with the batch).
     woken: Vec<u32>,
 }
@@ -322,11 +325,18 @@ impl Parked {
     fn new(tms: usize) -> Self {
         Parked {
             by_tm: vec![Vec::new(); tms],
+            mixed: vec![false; tms],
             ..Parked::default()
         }
     }
 
     fn park(&mut self, tm: usize, key: u64, tp: usize, inst: usize, t: u64, stall: Stall) {
+        if self.by_tm[tm]
+            .first()
+            .is_some_and(|f| f.inst != inst as u32)
+        {
+            self.mixed[tm] = true;
+        }
         self.by_tm[tm].push(ParkedTp {
             key,
             tp: tp as u32,
@@ -558,14 +568,21 @@ fn tm_run<S: Source>(
         if refused_now {
             // So is every parked TP after it that offers the same, up to the TM's next offer.
             let next = offers.get(fi).map(|&(_, key, tp)| (key, tp));
-            let mut end = pi + 1;
-            while let Some(r) = list.get(end) {
-                let dr = chip.dec[r.inst as usize];
-                if next.is_some_and(|o| o < (r.key, r.tp)) || (dr.class, dr.mem) != q {
-                    break;
+            let end = if w.parked.mixed[tm] {
+                let mut end = pi + 1;
+                while let Some(r) = list.get(end) {
+                    let dr = chip.dec[r.inst as usize];
+                    if next.is_some_and(|o| o < (r.key, r.tp)) || (dr.class, dr.mem) != q {
+                        break;
+                    }
+                    end += 1;
                 }
-                end += 1;
-            }
+                end
+            } else {
+                // All offer the same instruction: the run ends at the next offer's place.
+                let rest = &list[pi + 1..];
+                pi + 1 + next.map_or(rest.len(), |o| rest.partition_point(|r| (r.key, r.tp) < o))
+            };
             if left {
                 keep.extend_from_slice(&list[pi..end]);
             }
@@ -591,11 +608,19 @@ fn tm_run<S: Source>(
     // the stable sort merges them in one pass; keys are unique, so any sort gives this order.
     let mut new = std::mem::take(&mut w.parked.by_tm[tm]);
     let (mut kept, mut unused) = if left { (keep, list) } else { (list, keep) };
+    if let (Some(a), Some(b)) = (kept.first(), new.first())
+        && a.inst != b.inst
+    {
+        w.parked.mixed[tm] = true;
+    }
     if !new.is_empty() {
         kept.append(&mut new);
         kept.sort_by_key(|p| (p.key, p.tp));
     }
     unused.clear();
+    if kept.is_empty() {
+        w.parked.mixed[tm] = false;
+    }
     w.parked.by_tm[tm] = kept;
     w.parked.keep = unused;
     w.parked.spare = new;
