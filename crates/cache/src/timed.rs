@@ -58,6 +58,7 @@ use crate::config::WritePolicy;
 use crate::stats::CacheStats;
 use crate::topology::{Parent, Topology};
 use rtsim_config::ConfigError;
+use rtsim_core::mem::FIBONACCI_HASH;
 use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
 use rtsim_sim::{Component, EventError, EventQueue};
 use std::cell::Cell;
@@ -201,11 +202,11 @@ impl Hasher for LineHasher {
     }
     fn write(&mut self, bytes: &[u8]) {
         for &b in bytes {
-            self.0 = (self.0.rotate_left(8) ^ u64::from(b)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            self.0 = (self.0.rotate_left(8) ^ u64::from(b)).wrapping_mul(FIBONACCI_HASH);
         }
     }
     fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0 ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        self.0 = (self.0 ^ v).wrapping_mul(FIBONACCI_HASH);
     }
 }
 

@@ -14,6 +14,12 @@
 
 use serde::{Deserialize, Serialize};
 
+/// 2^64 / φ, rounded to odd: the multiplier of Fibonacci hashing (Knuth, *The Art of Computer
+/// Programming* vol. 3, §6.4). The top bits of `addr × FIBONACCI_HASH` spread line addresses,
+/// multiples of the line size, evenly over a power-of-two table; the caches' and the DRAM
+/// controller's line tables use it.
+pub const FIBONACCI_HASH: u64 = 0x9E37_79B9_7F4A_7C15;
+
 /// Read or write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

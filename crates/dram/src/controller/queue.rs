@@ -16,6 +16,7 @@
 //! after construction.
 
 use rtsim_core::MemOp;
+use rtsim_core::mem::FIBONACCI_HASH;
 use std::collections::VecDeque;
 
 /// "No entry".
@@ -475,7 +476,7 @@ impl LineIndex {
     /// spread line addresses, multiples of the line size, evenly).
     #[inline]
     fn home(&self, addr: u64) -> usize {
-        (addr.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize
+        (addr.wrapping_mul(FIBONACCI_HASH) >> self.shift) as usize
     }
 
     /// The cell of `addr`, or the empty cell ending its probe sequence.
