@@ -85,6 +85,14 @@ impl Ring {
         debug_assert!(c >= now);
         let fresh = self.fresh[lane];
         if c >= fresh {
+            if c == fresh && self.width == 16 {
+                // The usual stale case, one new row of the usual width (16 unit classes or
+                // banks): cleared inline, without `clear_to`'s call and `memset`.
+                let o = self.at(lane, c);
+                self.data[o..o + 16].fill(0);
+                self.fresh[lane] = c + 1;
+                return o;
+            }
             self.clear_to(lane, c, now);
         }
         self.at(lane, c)
