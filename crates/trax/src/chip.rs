@@ -319,12 +319,18 @@ impl<'a, S: Source> Chip<'a, S> {
 
     /// The current instruction of TP `tp`, fetching the next block from its work when the
     /// current one is finished; `None` once it has halted (recorded at `next_issue`).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn current(&mut self, tp: usize) -> Option<usize> {
         let c = &mut self.cores[tp];
         if c.ip < c.run.seg.len {
             return Some((c.run.seg.start + c.ip) as usize);
         }
+        self.next_run(tp)
+    }
+
+    /// [`Chip::current`] once TP `tp`'s run is finished: its next run from the work source.
+    #[inline(never)]
+    fn next_run(&mut self, tp: usize) -> Option<usize> {
         let mut done: Option<PixelDone> = None;
         let next = self
             .src
@@ -355,7 +361,7 @@ impl<'a, S: Source> Chip<'a, S> {
     /// Instruction `i` issued by TP `tp` at cycle `c` (a unit or local-memory instruction, or
     /// an accepted access whose destination `access` already set): count it, set its
     /// destination's ready cycle, move to the next instruction.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn retire_issue(&mut self, tp: usize, i: usize, c: u64) {
         let d = self.dec[i];
         let lat = self.lat[d.class as usize];
