@@ -44,6 +44,9 @@ pub(crate) struct Dec {
     pub rf: (u8, u8),
     /// `Inst::deps`: more registers waited for (and, for a stream load, filled).
     pub deps: u32,
+    /// `class.is_unit()` and `class.is_sync()`, decoded once (the engines ask per issue).
+    pub unit: bool,
+    pub sync: bool,
 }
 
 fn bit(r: u8) -> u32 {
@@ -61,6 +64,8 @@ impl Dec {
             mem: i.mem,
             rf: (r as u8, w as u8),
             deps: i.deps,
+            unit: i.class.is_unit(),
+            sync: i.class.is_sync(),
         }
     }
 }
@@ -366,7 +371,7 @@ impl<'a, S: Source> Chip<'a, S> {
         let d = self.dec[i];
         let lat = self.lat[d.class as usize];
         let core = &mut self.cores[tp];
-        if d.dst != NO_REG && !d.class.is_sync() {
+        if d.dst != NO_REG && !d.sync {
             let r = d.dst as usize;
             core.set_ready(r, c + lat);
             core.from_mem &= !(1 << r);
@@ -395,18 +400,22 @@ impl<'a, S: Source> Chip<'a, S> {
     pub(crate) fn operands_ready(&mut self, tp: usize, i: usize, s: u64) -> u64 {
         let d = &self.dec[i];
         let core = &self.cores[tp];
-        let (mut e, mut mem_until) = (s, 0);
+        let mut e = s;
         let mut m = d.regs;
         while m != 0 {
             let r = m.trailing_zeros() as usize;
             m &= m - 1;
-            let ready = core.ready_at(r);
-            e = e.max(ready);
-            if core.from_mem & (1 << r) != 0 {
-                mem_until = mem_until.max(ready);
-            }
+            e = e.max(core.ready_at(r));
         }
         if e > s {
+            // A wait: which of it is for memory (a second pass, only when there is a wait).
+            let mut mem_until = 0;
+            let mut m = d.regs & core.from_mem;
+            while m != 0 {
+                let r = m.trailing_zeros() as usize;
+                m &= m - 1;
+                mem_until = mem_until.max(core.ready_at(r));
+            }
             let mem = mem_until.clamp(s, e) - s;
             self.issue.stall[Stall::Memory as usize] += mem;
             self.issue.stall[Stall::Operand as usize] += e - s - mem;

@@ -923,7 +923,7 @@ fn run_ahead<S: Source>(
         let e = chip.operands_ready(tp, i, s);
         debug_assert!(e >= t, "booking in the past: {e} < {t}");
         // The first cycle from `e` whose unit (if any) and fetch bank have room.
-        let unit = d.class.is_unit();
+        let unit = d.unit;
         let cls = d.class as usize;
         let cap = if unit { chip.caps[tm][cls] } else { 0 };
         let fetch_cap = chip.fetch_cap;
@@ -962,7 +962,7 @@ fn run_ahead<S: Source>(
                 st.unit_busy[cls] += unit_busy;
             }
         }
-        if !d.class.is_sync() {
+        if !d.sync {
             chip.retire_issue(tp, i, c);
             continue;
         }
