@@ -36,7 +36,7 @@ pub use functional::{FunctionalHierarchy, MemoryCounts};
 pub use memory::FixedLatency;
 pub use stats::CacheStats;
 pub use timed::{
-    BusyCause, Completion, Hierarchy, HierarchyError, HierarchyParts, HierarchyStats, Outcome,
-    Request,
+    BusyCause, Completion, Hierarchy, HierarchyError, HierarchyParts, HierarchyStats, LeafOutcome,
+    LeafSend, Leaves, Outcome, Request, busy_retry,
 };
 pub use topology::{Node, Parent, Topology};

@@ -340,6 +340,124 @@ impl Node {
     }
 }
 
+impl Node {
+    /// An access at this leaf (an L1) in cycle `r.cycle`, everything due before it handled:
+    /// the answer, and the send towards the next level it makes, if any.
+    #[inline(always)]
+    fn leaf_access(&mut self, r: &Request) -> (LeafOutcome, Option<LeafSend>) {
+        let t = r.cycle;
+        let b = self.bank(r.addr);
+        if self.bank_free[b] > t {
+            self.cache.stats.bank_conflicts += 1;
+            let busy = Outcome::Busy {
+                retry_at: self.bank_free[b],
+                cause: BusyCause::Bank,
+            };
+            return (LeafOutcome::Now(busy), None);
+        }
+        let lat = self.latency;
+        let target = Target::Requester {
+            tag: r.tag,
+            l1: r.l1,
+            addr: r.addr,
+            op: r.op,
+            cycle: t,
+        };
+        let write = r.op == MemOp::Write;
+        let send = |op| LeafSend {
+            l1: r.l1,
+            at: t + lat,
+            addr: r.addr,
+            op,
+        };
+        let (outcome, sent) = if write && !self.write_back {
+            // Write-around: posted through the write buffer.
+            if self.wb_used >= self.wb_cap {
+                self.cache.stats.write_buffer_full_stalls += 1;
+                let busy = LeafOutcome::BusyUntilNextEvent(BusyCause::WriteBuffer);
+                return (busy, None);
+            }
+            let hit = self.cache.lookup(r.addr, r.op);
+            self.cache.stats.write_throughs += 1;
+            self.wb_used += 1;
+            let done = Outcome::Done {
+                ready: t + lat,
+                hit,
+            };
+            (done, Some(send(MemOp::Write)))
+        } else if self.cache.lookup_if_present(r.addr, r.op) {
+            let done = Outcome::Done {
+                ready: t + lat,
+                hit: true,
+            };
+            (done, None)
+        } else if self.in_flight.get(self.line(r.addr)).is_some() {
+            self.cache.lookup(r.addr, r.op);
+            self.merge(r.addr, write, Some(target));
+            (Outcome::Pending, None)
+        } else if self.can_allocate() {
+            self.cache.lookup(r.addr, r.op);
+            self.allocate(t, r.addr, write, Some(target));
+            (Outcome::Pending, Some(send(MemOp::Read)))
+        } else {
+            self.cache.stats.mshr_full_stalls += 1;
+            return (LeafOutcome::BusyUntilNextEvent(BusyCause::Mshr), None);
+        };
+        self.bank_free[b] = t + 1;
+        (LeafOutcome::Now(outcome), sent)
+    }
+}
+
+/// The retry cycle of an access refused at cycle `t` for lack of an MSHR or a write-buffer
+/// entry, given the hierarchy's next event at that moment: nothing can free one before it.
+pub fn busy_retry(t: u64, next_event: Option<u64>) -> u64 {
+    next_event.unwrap_or(t + 1).max(t + 1)
+}
+
+/// An L1's answer to an access through [`Leaves::access`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LeafOutcome {
+    /// The answer, as [`Hierarchy::submit`] gives it.
+    Now(Outcome),
+    /// Refused for lack of an MSHR or a write-buffer entry: `Busy` with `retry_at` =
+    /// [`busy_retry`] of the hierarchy's next event, counting the sends of the cycle's
+    /// accesses before this one.
+    BusyUntilNextEvent(BusyCause),
+}
+
+/// What an access at an L1 sends towards the next level: the line (or the written word's
+/// line) of `addr`, arriving at `at`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LeafSend {
+    /// The L1 (index into [`Topology::leaves`]).
+    pub l1: usize,
+    pub at: u64,
+    pub addr: u64,
+    pub op: MemOp,
+}
+
+/// A run of L1s lent out for one cycle's accesses ([`Hierarchy::leaves`]).
+#[derive(Debug)]
+pub struct Leaves<'h> {
+    /// The first L1's index.
+    first: usize,
+    nodes: &'h mut [Node],
+    cycle: u64,
+}
+
+impl Leaves<'_> {
+    /// Offer `r` (in the cycle the run was lent out for, to one of its L1s): the L1's answer
+    /// and what it sends, which the caller must [`Hierarchy::replay`].
+    #[inline]
+    pub fn access(&mut self, r: &Request) -> (LeafOutcome, Option<LeafSend>) {
+        debug_assert_eq!(
+            r.cycle, self.cycle,
+            "a run of L1s is lent out for one cycle"
+        );
+        self.nodes[r.l1 - self.first].leaf_access(r)
+    }
+}
+
 /// The timed cache tree over a memory model `M`.
 #[derive(Debug)]
 pub struct Hierarchy<M> {
@@ -526,68 +644,69 @@ impl<M: MemoryPort> Hierarchy<M> {
             });
         };
         self.advance_to(r.cycle)?;
-        let t = r.cycle;
-        let node = &mut self.nodes[n];
-        let b = node.bank(r.addr);
-        if node.bank_free[b] > t {
-            node.cache.stats.bank_conflicts += 1;
-            return Ok(Outcome::Busy {
-                retry_at: node.bank_free[b],
-                cause: BusyCause::Bank,
-            });
+        let (outcome, send) = self.nodes[n].leaf_access(&r);
+        if let Some(s) = send {
+            self.send_down(n, s.at, s.addr, s.op)?;
         }
-        let lat = node.latency;
-        let target = Target::Requester {
-            tag: r.tag,
-            l1: r.l1,
-            addr: r.addr,
-            op: r.op,
-            cycle: t,
-        };
-        let write = r.op == MemOp::Write;
-        let outcome = if write && !node.write_back {
-            // Write-around: posted through the write buffer.
-            if node.wb_used >= node.wb_cap {
-                node.cache.stats.write_buffer_full_stalls += 1;
-                return Ok(self.busy(t, BusyCause::WriteBuffer));
-            }
-            let hit = node.cache.lookup(r.addr, r.op);
-            node.cache.stats.write_throughs += 1;
-            node.wb_used += 1;
-            self.send_down(n, t + lat, r.addr, MemOp::Write)?;
-            Outcome::Done {
-                ready: t + lat,
-                hit,
-            }
-        } else if node.cache.lookup_if_present(r.addr, r.op) {
-            Outcome::Done {
-                ready: t + lat,
-                hit: true,
-            }
-        } else if node.in_flight.get(node.line(r.addr)).is_some() {
-            node.cache.lookup(r.addr, r.op);
-            node.merge(r.addr, write, Some(target));
-            Outcome::Pending
-        } else if node.can_allocate() {
-            node.cache.lookup(r.addr, r.op);
-            node.allocate(t, r.addr, write, Some(target));
-            self.send_down(n, t + lat, r.addr, MemOp::Read)?;
-            Outcome::Pending
-        } else {
-            node.cache.stats.mshr_full_stalls += 1;
-            return Ok(self.busy(t, BusyCause::Mshr));
-        };
-        self.nodes[n].bank_free[b] = t + 1;
-        Ok(outcome)
+        Ok(match outcome {
+            LeafOutcome::Now(o) => o,
+            LeafOutcome::BusyUntilNextEvent(cause) => Outcome::Busy {
+                retry_at: busy_retry(r.cycle, self.next_event()),
+                cause,
+            },
+        })
     }
 
-    /// A refusal for lack of an MSHR or a write-buffer entry: nothing can free one before the
-    /// next event.
-    fn busy(&self, t: u64, cause: BusyCause) -> Outcome {
-        Outcome::Busy {
-            retry_at: self.next_event().unwrap_or(t + 1).max(t + 1),
-            cause,
+    /// Lend out the leaf caches for the accesses of cycle `cycle`, in runs that requesters on
+    /// different threads may use at once: run `k` holds the L1s `bounds[k]..bounds[k + 1]`
+    /// (`bounds` ascending from 0 to the number of L1s). Everything due up to `cycle` is
+    /// handled first. `None` if the leaves are not consecutive nodes (a topology the split
+    /// does not support; the caller then uses [`Hierarchy::submit`]).
+    ///
+    /// An access through a run ([`Leaves::access`]) decides at its L1 exactly what
+    /// [`Hierarchy::submit`] decides, but what it sends towards the next level goes to a log
+    /// ([`LeafSend`]), applied afterwards by [`Hierarchy::replay`] in the order the accesses would
+    /// have been submitted; and a refusal for lack of an MSHR or write-buffer entry, whose
+    /// retry is the hierarchy's next event — which the cycle's earlier sends may bring
+    /// forward — comes back as [`LeafOutcome::BusyUntilNextEvent`], for the caller to resolve
+    /// with [`busy_retry`] once it knows the earlier sends.
+    pub fn leaves(
+        &mut self,
+        cycle: u64,
+        bounds: &[usize],
+    ) -> Result<Option<Vec<Leaves<'_>>>, HierarchyError> {
+        if cycle < self.now {
+            return Err(HierarchyError::Past {
+                cycle,
+                now: self.now,
+            });
         }
+        self.advance_to(cycle)?;
+        let leaves = self.topology.leaves();
+        let first = leaves.first().copied().unwrap_or(0);
+        if leaves.iter().enumerate().any(|(i, &n)| n != first + i) {
+            return Ok(None);
+        }
+        debug_assert!(bounds.first() == Some(&0) && bounds.last() == Some(&leaves.len()));
+        let mut rest = &mut self.nodes[first..first + leaves.len()];
+        let mut runs = Vec::with_capacity(bounds.len().saturating_sub(1));
+        for w in bounds.windows(2) {
+            let (run, tail) = rest.split_at_mut(w[1] - w[0]);
+            rest = tail;
+            runs.push(Leaves {
+                first: w[0],
+                nodes: run,
+                cycle,
+            });
+        }
+        Ok(Some(runs))
+    }
+
+    /// Apply a send that a [`Leaves::access`] logged (see [`Hierarchy::leaves`]), in the
+    /// order the accesses would have been submitted.
+    pub fn replay(&mut self, s: &LeafSend) -> Result<(), HierarchyError> {
+        let n = self.topology.leaves()[s.l1];
+        self.send_down(n, s.at, s.addr, s.op)
     }
 
     fn push(&mut self, t: u64, ev: Ev) -> Result<(), HierarchyError> {
