@@ -28,6 +28,8 @@ pub enum ChipError {
     Config(#[from] ConfigError),
     #[error("cache hierarchy: {0}")]
     Hierarchy(#[from] HierarchyError),
+    #[error("starting the engine's threads: {0}")]
+    Threads(String),
 }
 
 /// A decoded instruction, as the engines read it.
@@ -153,11 +155,188 @@ impl Core {
     }
 }
 
-/// The atomic pixel counter.
+impl Core {
+    /// Instruction `d` issued at cycle `c` (a unit or local-memory instruction, or an accepted
+    /// access whose destination the access already set), `lat` its unit's latency: count it,
+    /// set its destination's ready cycle, move to the next instruction.
+    #[inline(always)]
+    pub(crate) fn retire(&mut self, d: &Dec, lat: u64, c: u64, s: &mut IssueStats) {
+        if d.dst != NO_REG && !d.sync {
+            let r = d.dst as usize;
+            self.set_ready(r, c + lat);
+            self.from_mem &= !(1 << r);
+            self.missed &= !(1 << r);
+        }
+        self.ip += 1;
+        if d.class == Class::Branch {
+            // No branch prediction: the next instruction waits for the branch to resolve;
+            // those cycles are counted here, when they become certain.
+            self.next_issue = c + lat;
+            s.stall[Stall::Operand as usize] += lat - 1;
+        } else {
+            self.next_issue = c + 1;
+        }
+        s.instructions[d.class as usize] += 1;
+        s.register_reads += d.rf.0 as u64;
+        s.register_writes += d.rf.1 as u64;
+    }
+
+    /// The earliest cycle from `s` at which every register instruction `d` reads or writes
+    /// is readable (the operands must be known), accounting the cycles before it: a cycle is a
+    /// memory stall while an operand written by a data-cache load is not yet readable, an
+    /// operand stall otherwise.
+    #[inline]
+    pub(crate) fn operands_ready(&self, d: &Dec, s: u64, st: &mut IssueStats) -> u64 {
+        let mut e = s;
+        let mut m = d.regs;
+        while m != 0 {
+            let r = m.trailing_zeros() as usize;
+            m &= m - 1;
+            e = e.max(self.ready_at(r));
+        }
+        if e > s {
+            // A wait: which of it is for memory (a second pass, only when there is a wait).
+            let mut mem_until = 0;
+            let mut m = d.regs & self.from_mem;
+            while m != 0 {
+                let r = m.trailing_zeros() as usize;
+                m &= m - 1;
+                mem_until = mem_until.max(self.ready_at(r));
+            }
+            let mem = mem_until.clamp(s, e) - s;
+            st.stall[Stall::Memory as usize] += mem;
+            st.stall[Stall::Operand as usize] += e - s - mem;
+        }
+        e
+    }
+
+    /// The data-cache request of this TP's (`tp`'s) load or store `d` at cycle `t`.
+    #[inline]
+    pub(crate) fn data_request(&self, d: &Dec, tp: usize, t: u64) -> Request {
+        let Mem::Word { base, word } = d.mem else {
+            unreachable!("data-cache instructions name a record word");
+        };
+        Request {
+            cycle: t,
+            l1: self.tm as usize,
+            addr: self.run.base[base as usize] + 4 * word as u64,
+            op: if d.class == Class::Load {
+                MemOp::Read
+            } else {
+                MemOp::Write
+            },
+            tag: ((tp as u64) << 8) | d.dst as u64,
+        }
+    }
+
+    /// The L1's answer `out` to this TP's load or store `d` at `t`: the destination's state
+    /// if accepted; the refusal's stall cycles counted.
+    #[inline]
+    pub(crate) fn data_outcome(
+        &mut self,
+        d: &Dec,
+        out: Outcome,
+        t: u64,
+        st: &mut IssueStats,
+    ) -> Offered {
+        let r = d.dst as usize;
+        match out {
+            Outcome::Busy { retry_at, .. } => {
+                st.stall[Stall::Memory as usize] += retry_at - t;
+                return Offered::Busy { retry_at };
+            }
+            Outcome::Done { ready, .. } => {
+                if d.class == Class::Load {
+                    self.set_ready(r, ready);
+                    self.from_mem |= 1 << r;
+                    self.missed &= !(1 << r);
+                }
+            }
+            Outcome::Pending => {
+                debug_assert_eq!(d.class, Class::Load, "write-around writes are posted");
+                self.pending |= 1 << r;
+                self.from_mem |= 1 << r;
+                self.missed |= 1 << r;
+            }
+        }
+        Offered::Accepted
+    }
+
+    /// The atomic counter handed this TP `next_pixel` (its `atominc` `d`, of latency `lat`,
+    /// accepted at `t`): the per-pixel cycles of the pixel it finished, and its destination.
+    #[inline]
+    pub(crate) fn atomic_granted(
+        &mut self,
+        d: &Dec,
+        lat: u64,
+        next_pixel: Option<u32>,
+        heat: &mut [u64],
+        t: u64,
+    ) {
+        if let Some(p) = self.pixel {
+            heat[p as usize] = t - self.pixel_since;
+        }
+        self.pixel = next_pixel;
+        self.pixel_since = t;
+        let r = d.dst as usize;
+        self.set_ready(r, t + lat);
+        self.from_mem &= !(1 << r);
+        self.missed &= !(1 << r);
+    }
+
+    /// This TP's access `d` was accepted at `t`: it issues now.
+    #[inline]
+    pub(crate) fn accepted(&mut self, d: &Dec, t: u64, s: &mut IssueStats) {
+        self.key = t;
+        self.next_issue = t + 1;
+        self.ip += 1;
+        self.wait = Wait::Ready;
+        s.instructions[d.class as usize] += 1;
+        s.register_reads += d.rf.0 as u64;
+        s.register_writes += d.rf.1 as u64;
+    }
+
+    /// This TP's run is finished and its work gave it `next`: start it, or halt. Returns
+    /// the first instruction, and whether it halted.
+    #[inline]
+    pub(crate) fn start_run(&mut self, next: Option<Run>) -> Option<usize> {
+        match next {
+            Some(run) => {
+                self.run = run;
+                self.ip = 0;
+                Some(run.seg.start as usize)
+            }
+            None => {
+                self.wait = Wait::Halted;
+                self.halted_at = self.next_issue;
+                None
+            }
+        }
+    }
+}
+
+/// The atomic pixel counter's issue slots: `count` accesses per cycle.
 #[derive(Clone, Debug, Default)]
-struct Atomic {
+pub(crate) struct Atomic {
     cycle: u64,
     used: u32,
+}
+
+impl Atomic {
+    /// Whether an access at cycle `t` (nondecreasing across calls) finds one of the cycle's
+    /// `count` slots free, taking it if so.
+    #[inline]
+    pub(crate) fn admit(&mut self, t: u64, count: u32) -> bool {
+        if self.cycle != t {
+            self.cycle = t;
+            self.used = 0;
+        }
+        if self.used >= count {
+            return false;
+        }
+        self.used += 1;
+        true
+    }
 }
 
 /// The result of offering an access.
@@ -185,7 +364,7 @@ pub struct Chip<'a, S: Source = TraxSource<'a>> {
     /// `Core::missed` says so; read by the reference engine's keys).
     pub(crate) miss_done: Vec<[u64; 32]>,
     pub(crate) hier: Hierarchy<Dram>,
-    atomic: Atomic,
+    pub(crate) atomic: Atomic,
     pub(crate) completions: Vec<Completion>,
     pub(crate) issue: IssueStats,
     pub(crate) frame: FrameStats,
@@ -341,86 +520,22 @@ impl<'a, S: Source> Chip<'a, S> {
             .src
             .next(tp, &mut self.frame, &mut self.rays_done, &mut done);
         if let Some(d) = done {
-            self.pixels[d.pixel as usize] = PixelResult {
-                color: d.color,
-                nodes_visited: d.nodes_visited,
-            };
+            self.pixels[d.pixel as usize] = d.result();
             self.pixels_done += 1;
         }
-        let c = &mut self.cores[tp];
-        match next {
-            Some(run) => {
-                c.run = run;
-                c.ip = 0;
-                Some(run.seg.start as usize)
-            }
-            None => {
-                c.wait = Wait::Halted;
-                c.halted_at = c.next_issue;
-                self.live -= 1;
-                None
-            }
+        let first = self.cores[tp].start_run(next);
+        if first.is_none() {
+            self.live -= 1;
         }
+        first
     }
 
-    /// Instruction `i` issued by TP `tp` at cycle `c` (a unit or local-memory instruction, or
-    /// an accepted access whose destination `access` already set): count it, set its
-    /// destination's ready cycle, move to the next instruction.
+    /// Instruction `i` issued by TP `tp` at cycle `c` (see [`Core::retire`]).
     #[inline(always)]
     pub(crate) fn retire_issue(&mut self, tp: usize, i: usize, c: u64) {
         let d = self.dec[i];
         let lat = self.lat[d.class as usize];
-        let core = &mut self.cores[tp];
-        if d.dst != NO_REG && !d.sync {
-            let r = d.dst as usize;
-            core.set_ready(r, c + lat);
-            core.from_mem &= !(1 << r);
-            core.missed &= !(1 << r);
-        }
-        core.ip += 1;
-        let s = &mut self.issue;
-        if d.class == Class::Branch {
-            // No branch prediction: the next instruction waits for the branch to resolve;
-            // those cycles are counted here, when they become certain.
-            core.next_issue = c + lat;
-            s.stall[Stall::Operand as usize] += lat - 1;
-        } else {
-            core.next_issue = c + 1;
-        }
-        s.instructions[d.class as usize] += 1;
-        s.register_reads += d.rf.0 as u64;
-        s.register_writes += d.rf.1 as u64;
-    }
-
-    /// The earliest cycle from `s` at which every register instruction `i` reads or writes
-    /// is readable (the operands must be known), accounting the cycles before it: a cycle is a
-    /// memory stall while an operand written by a data-cache load is not yet readable, an
-    /// operand stall otherwise.
-    #[inline]
-    pub(crate) fn operands_ready(&mut self, tp: usize, i: usize, s: u64) -> u64 {
-        let d = &self.dec[i];
-        let core = &self.cores[tp];
-        let mut e = s;
-        let mut m = d.regs;
-        while m != 0 {
-            let r = m.trailing_zeros() as usize;
-            m &= m - 1;
-            e = e.max(core.ready_at(r));
-        }
-        if e > s {
-            // A wait: which of it is for memory (a second pass, only when there is a wait).
-            let mut mem_until = 0;
-            let mut m = d.regs & core.from_mem;
-            while m != 0 {
-                let r = m.trailing_zeros() as usize;
-                m &= m - 1;
-                mem_until = mem_until.max(core.ready_at(r));
-            }
-            let mem = mem_until.clamp(s, e) - s;
-            self.issue.stall[Stall::Memory as usize] += mem;
-            self.issue.stall[Stall::Operand as usize] += e - s - mem;
-        }
-        e
+        self.cores[tp].retire(&d, lat, c, &mut self.issue);
     }
 
     /// The key instruction `i` of TP `tp` arbitrates with: the TP's key, raised to the
@@ -447,66 +562,20 @@ impl<'a, S: Source> Chip<'a, S> {
         let dst = d.dst;
         match d.class {
             Class::Atomic => {
-                let a = &mut self.atomic;
-                if a.cycle != t {
-                    a.cycle = t;
-                    a.used = 0;
-                }
-                if a.used >= self.cfg.atomic.count {
+                if !self.atomic.admit(t, self.cfg.atomic.count) {
                     self.issue.stall[Stall::Atomic as usize] += 1;
                     return Ok(Offered::Busy { retry_at: t + 1 });
                 }
-                a.used += 1;
                 let next_pixel = self.src.atomic(tp);
-                let core = &mut self.cores[tp];
-                if let Some(p) = core.pixel {
-                    self.heat[p as usize] = t - core.pixel_since;
-                }
-                core.pixel = next_pixel;
-                core.pixel_since = t;
-                let r = dst as usize;
-                core.set_ready(r, t + self.lat[Class::Atomic as usize]);
-                core.from_mem &= !(1 << r);
-                core.missed &= !(1 << r);
+                let lat = self.lat[Class::Atomic as usize];
+                self.cores[tp].atomic_granted(&d, lat, next_pixel, &mut self.heat, t);
             }
             Class::Load | Class::Store => {
-                let Mem::Word { base, word } = d.mem else {
-                    unreachable!("data-cache instructions name a record word");
-                };
-                let addr = core.run.base[base as usize] + 4 * word as u64;
-                let op = if d.class == Class::Load {
-                    MemOp::Read
-                } else {
-                    MemOp::Write
-                };
-                let out = self.hier.submit(Request {
-                    cycle: t,
-                    l1: core.tm as usize,
-                    addr,
-                    op,
-                    tag: ((tp as u64) << 8) | dst as u64,
-                })?;
-                let core = &mut self.cores[tp];
-                match out {
-                    Outcome::Busy { retry_at, .. } => {
-                        self.issue.stall[Stall::Memory as usize] += retry_at - t;
-                        return Ok(Offered::Busy { retry_at });
-                    }
-                    Outcome::Done { ready, .. } => {
-                        if op == MemOp::Read {
-                            let r = dst as usize;
-                            core.set_ready(r, ready);
-                            core.from_mem |= 1 << r;
-                            core.missed &= !(1 << r);
-                        }
-                    }
-                    Outcome::Pending => {
-                        debug_assert_eq!(op, MemOp::Read, "write-around writes are posted");
-                        let r = dst as usize;
-                        core.pending |= 1 << r;
-                        core.from_mem |= 1 << r;
-                        core.missed |= 1 << r;
-                    }
+                let out = self.hier.submit(core.data_request(&d, tp, t))?;
+                if let busy @ Offered::Busy { .. } =
+                    self.cores[tp].data_outcome(&d, out, t, &mut self.issue)
+                {
+                    return Ok(busy);
                 }
             }
             Class::TriTest | Class::StreamLoad | Class::StreamStore => {
@@ -541,15 +610,7 @@ impl<'a, S: Source> Chip<'a, S> {
                 "only data-cache, atomic, pipeline and stream instructions are offered"
             ),
         }
-        let core = &mut self.cores[tp];
-        core.key = t;
-        core.next_issue = t + 1;
-        core.ip += 1;
-        core.wait = Wait::Ready;
-        let s = &mut self.issue;
-        s.instructions[d.class as usize] += 1;
-        s.register_reads += d.rf.0 as u64;
-        s.register_writes += d.rf.1 as u64;
+        self.cores[tp].accepted(&d, t, &mut self.issue);
         Ok(Offered::Accepted)
     }
 

@@ -13,10 +13,10 @@
 //! the caches at their issue cycles in (cycle, TP) order, as in the reference. A TP waiting on
 //! memory or a long-latency unit costs nothing until it can act.
 
-use crate::chip::{Chip, ChipError, Offered, Wait};
+use crate::chip::{Chip, ChipError, Dec, Offered, Wait};
 use crate::isa::{Class, UNIT_CLASSES};
 use crate::source::Source;
-use crate::stats::Stall;
+use crate::stats::{IssueStats, Stall};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -122,24 +122,82 @@ impl Ring {
 /// The issue-slot calendar: per TM, the slots used per unit class; per instruction cache,
 /// the fetches per bank.
 #[derive(Debug)]
-struct Calendar {
+pub(crate) struct Calendar {
     units: Ring,
     banks: Ring,
 }
 
 impl Calendar {
-    fn new(tms: usize, icaches: usize, banks: usize, slots: usize) -> Self {
+    pub(crate) fn new(tms: usize, icaches: usize, banks: usize, slots: usize) -> Self {
         Calendar {
             units: Ring::new(tms, UNIT_CLASSES, slots),
             banks: Ring::new(tms * icaches, banks, slots),
         }
+    }
+
+    /// Book instruction `d`, whose operands are ready at `e`, for a TP of the TM whose units
+    /// are lane `tm` (`caps`: its issue slots per cycle by class) and whose instruction cache is
+    /// lane `lane` (`fetch_cap` fetches per bank and cycle), while the engine is at `t`: the
+    /// first cycle from `e` where its unit (if any) and its fetch bank have room. The cycles
+    /// waited for them are counted as stalls.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) fn book(
+        &mut self,
+        tm: usize,
+        lane: usize,
+        d: &Dec,
+        caps: &[u8; UNIT_CLASSES],
+        fetch_cap: u8,
+        e: u64,
+        t: u64,
+        st: &mut IssueStats,
+    ) -> u64 {
+        let unit = d.unit;
+        let cls = d.class as usize;
+        let cap = if unit { caps[cls] } else { 0 };
+        let bank = d.bank as usize;
+        let mut c = e;
+        let (mut unit_busy, mut fetch_busy) = (0u64, 0u64);
+        loop {
+            let u = if unit {
+                let u = self.units.row(tm, c, t) + cls;
+                if self.units.data[u] >= cap {
+                    unit_busy += 1;
+                    c += 1;
+                    continue;
+                }
+                Some(u)
+            } else {
+                None
+            };
+            let b = self.banks.row(lane, c, t) + bank;
+            if self.banks.data[b] >= fetch_cap {
+                fetch_busy += 1;
+                c += 1;
+                continue;
+            }
+            if let Some(u) = u {
+                self.units.data[u] += 1;
+            }
+            self.banks.data[b] += 1;
+            break;
+        }
+        if unit_busy + fetch_busy > 0 {
+            st.stall[Stall::Unit as usize] += unit_busy;
+            st.stall[Stall::Fetch as usize] += fetch_busy;
+            if unit {
+                st.unit_busy[cls] += unit_busy;
+            }
+        }
+        c
     }
 }
 
 /// TP events by cycle: a ring of per-cycle bitsets over TPs (so a cycle's TPs come out in
 /// index order), and a heap for events beyond the ring.
 #[derive(Debug)]
-struct Wheel {
+pub(crate) struct Wheel {
     words: usize,
     slots: usize,
     tags: Vec<u64>,
@@ -151,11 +209,11 @@ struct Wheel {
     /// One bit per slot: it holds events.
     busy: Vec<u64>,
     far: BinaryHeap<Reverse<(u64, u32)>>,
-    now: u64,
+    pub(crate) now: u64,
 }
 
 impl Wheel {
-    fn new(tps: usize, slots: usize) -> Self {
+    pub(crate) fn new(tps: usize, slots: usize) -> Self {
         let words = tps.div_ceil(64);
         let sum_words = words.div_ceil(64);
         Wheel {
@@ -173,7 +231,7 @@ impl Wheel {
     }
 
     #[inline]
-    fn add(&mut self, c: u64, tp: usize) {
+    pub(crate) fn add(&mut self, c: u64, tp: usize) {
         debug_assert!(c >= self.now);
         if c - self.now >= self.slots as u64 {
             self.far.push(Reverse((c, tp as u32)));
@@ -196,7 +254,7 @@ impl Wheel {
     }
 
     /// The earliest cycle with events.
-    fn next(&self) -> Option<u64> {
+    pub(crate) fn next(&self) -> Option<u64> {
         let far = self.far.peek().map(|Reverse((c, _))| *c);
         let start = self.now as usize & (self.slots - 1);
         let n = self.busy.len();
@@ -217,8 +275,14 @@ impl Wheel {
         far
     }
 
+    /// TPs due at cycle `c` (those of the ring; a hint).
+    pub(crate) fn due(&self, c: u64) -> u32 {
+        let s = c as usize & (self.slots - 1);
+        if self.tags[s] == c { self.count[s] } else { 0 }
+    }
+
     /// Move to cycle `c` and take its TPs, in index order.
-    fn take(&mut self, c: u64, out: &mut Vec<u32>) {
+    pub(crate) fn take(&mut self, c: u64, out: &mut Vec<u32>) {
         self.now = c;
         out.clear();
         while let Some(&Reverse((fc, tp))) = self.far.peek() {
@@ -827,7 +891,7 @@ pub fn run<S: Source>(
 }
 
 /// How many TPs ahead of the one being handled the engine prefetches the state of.
-const AHEAD: usize = 4;
+pub(crate) const AHEAD: usize = 4;
 
 /// Ask the host CPU to bring TP `tp`'s timing state and the head of its work into its cache:
 /// a cycle's TPs are known in advance, and each one's state is usually out of the cache by the
@@ -847,7 +911,7 @@ fn prefetch_tp<S: Source>(chip: &Chip<'_, S>, tp: usize) {
 }
 
 /// Sort nearly sorted, mostly tiny runs.
-fn insertion_sort<T: Ord + Copy>(v: &mut [T]) {
+pub(crate) fn insertion_sort<T: Ord + Copy>(v: &mut [T]) {
     for i in 1..v.len() {
         let x = v[i];
         let mut j = i;
@@ -920,48 +984,18 @@ fn run_ahead<S: Source>(
             return Ok(());
         }
         let s = core.next_issue;
-        let e = chip.operands_ready(tp, i, s);
+        let e = core.operands_ready(&d, s, &mut chip.issue);
         debug_assert!(e >= t, "booking in the past: {e} < {t}");
-        // The first cycle from `e` whose unit (if any) and fetch bank have room.
-        let unit = d.unit;
-        let cls = d.class as usize;
-        let cap = if unit { chip.caps[tm][cls] } else { 0 };
-        let fetch_cap = chip.fetch_cap;
-        let bank = d.bank as usize;
-        let mut c = e;
-        let (mut unit_busy, mut fetch_busy) = (0u64, 0u64);
-        loop {
-            let u = if unit {
-                let u = cal.units.row(tm, c, t) + cls;
-                if cal.units.data[u] >= cap {
-                    unit_busy += 1;
-                    c += 1;
-                    continue;
-                }
-                Some(u)
-            } else {
-                None
-            };
-            let b = cal.banks.row(lane, c, t) + bank;
-            if cal.banks.data[b] >= fetch_cap {
-                fetch_busy += 1;
-                c += 1;
-                continue;
-            }
-            if let Some(u) = u {
-                cal.units.data[u] += 1;
-            }
-            cal.banks.data[b] += 1;
-            break;
-        }
-        if unit_busy + fetch_busy > 0 {
-            let st = &mut chip.issue;
-            st.stall[Stall::Unit as usize] += unit_busy;
-            st.stall[Stall::Fetch as usize] += fetch_busy;
-            if unit {
-                st.unit_busy[cls] += unit_busy;
-            }
-        }
+        let c = cal.book(
+            tm,
+            lane,
+            &d,
+            &chip.caps[tm],
+            chip.fetch_cap,
+            e,
+            t,
+            &mut chip.issue,
+        );
         if !d.sync {
             chip.retire_issue(tp, i, c);
             continue;

@@ -102,12 +102,22 @@ pub trait Source {
     }
 }
 
+/// The atomic counter, at `next`, hands its value to `work`: returns the pixel it starts.
+#[inline]
+pub(crate) fn counter_next(next: &mut u32, work: &mut Work, ctx: &Ctx<'_>) -> Option<u32> {
+    let value = *next;
+    *next = next.saturating_add(1);
+    work.set_counter(value);
+    ctx.pixels.get(value as usize).copied()
+}
+
 /// The TRaX baseline's work: every TP runs whole pixels handed out by the atomic counter.
 #[derive(Debug)]
 pub struct TraxSource<'a> {
     pub ctx: Ctx<'a>,
     pub works: Vec<Work>,
-    next: u32,
+    /// The atomic counter's next value.
+    pub(crate) next: u32,
 }
 
 impl<'a> TraxSource<'a> {
@@ -142,10 +152,7 @@ impl Source for TraxSource<'_> {
     }
 
     fn atomic(&mut self, tp: usize) -> Option<u32> {
-        let value = self.next;
-        self.next = self.next.saturating_add(1);
-        self.works[tp].set_counter(value);
-        self.ctx.pixels.get(value as usize).copied()
+        counter_next(&mut self.next, &mut self.works[tp], &self.ctx)
     }
 
     fn access(

@@ -52,6 +52,16 @@ pub struct PixelDone {
     pub nodes_visited: u32,
 }
 
+impl PixelDone {
+    /// The pixel's entry in the frame's result.
+    pub fn result(&self) -> rtsim_trace::PixelResult {
+        rtsim_trace::PixelResult {
+            color: self.color,
+            nodes_visited: self.nodes_visited,
+        }
+    }
+}
+
 /// One TP's functional state.
 #[derive(Clone, Debug)]
 pub struct Work {
