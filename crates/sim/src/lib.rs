@@ -9,6 +9,8 @@
 //!   chip's clock and the DRAM's are independent integers).
 //! - [`component`]: the [`Component`] trait — build from config → advance through events →
 //!   finish into stats — with [`run_until`] (event skipping) and [`tick_until`] (every cycle).
+//! - [`crew`]: [`Crew`], host threads that each take one job per hand-over, spinning between
+//!   hand-overs, for engines that split every simulated cycle between threads.
 //! - [`Stats`]: `#[derive(Stats)]` (from `rtsim-stats-derive`) writes `AddAssign` for stats
 //!   structs field by field, so no counter is left out of a sum; `#[stats(max)]` for
 //!   high-water marks; nested stats, `Histogram`s, arrays and Vecs merge element-wise.
@@ -21,12 +23,14 @@
 
 pub mod clock;
 pub mod component;
+pub mod crew;
 pub mod event;
 pub mod link;
 pub mod testing;
 
 pub use clock::Ratio;
 pub use component::{Component, run_until, tick_until};
+pub use crew::Crew;
 pub use event::{EventError, EventQueue};
 pub use link::{Link, LinkError, LinkStats, PushError};
 pub use rtsim_stats_derive::Stats;
