@@ -81,6 +81,7 @@ fn run_to(
             engine,
             cycle_limit,
             seed: 1,
+            threads: 1,
         },
         &mut |_| {},
     )

@@ -35,6 +35,7 @@ pub mod config;
 pub mod energy;
 pub mod fast;
 pub mod isa;
+pub mod par;
 pub mod program;
 pub mod reference;
 pub mod report;
@@ -93,6 +94,9 @@ pub struct Options {
     pub cycle_limit: Option<u64>,
     /// Seed of the caches' random replacement streams.
     pub seed: u64,
+    /// Host threads of the fast engine on the TRaX program ([`par`]): results are
+    /// bit-identical whatever the number. 1 (or 0): [`fast`] alone.
+    pub threads: usize,
 }
 
 /// Where a run is, for progress bars.
@@ -135,17 +139,48 @@ pub fn simulate(
     };
     let src = TraxSource::new(ctx, cfg.total_tps() as usize);
     let chip = Chip::new(cfg, src, &program, frame.image_pixels, dram, opts.seed)?;
-    let (out, _) = run_chip(chip, &program, opts, progress)?;
+    let (out, _) = run_with(
+        chip,
+        &program,
+        opts,
+        progress,
+        |chip, limit, tick| match opts.engine {
+            Engine::Fast if opts.threads > 1 => par::run(chip, opts.threads, limit, tick),
+            Engine::Fast => fast::run(chip, limit, tick),
+            Engine::Reference => reference::run(chip, limit, tick),
+        },
+    )?;
     Ok(out)
 }
 
 /// Run a built chip to the end of its frame (or `opts.cycle_limit`) with the engine `opts`
-/// names; returns the output and the source, for what it counted.
+/// names (one thread); returns the output and the source, for what it counted.
 pub fn run_chip<S: Source>(
-    mut chip: Chip<'_, S>,
+    chip: Chip<'_, S>,
     program: &Program,
     opts: &Options,
     progress: &mut dyn FnMut(Progress),
+) -> Result<(Output, S), ChipError> {
+    run_with(
+        chip,
+        program,
+        opts,
+        progress,
+        |chip, limit, tick| match opts.engine {
+            Engine::Fast => fast::run(chip, limit, tick),
+            Engine::Reference => reference::run(chip, limit, tick),
+        },
+    )
+}
+
+/// Run a built chip with `engine` (which runs to the end of the frame or a cycle limit and
+/// returns the last cycle), then close its accounts.
+fn run_with<'c, S: Source>(
+    mut chip: Chip<'c, S>,
+    program: &Program,
+    opts: &Options,
+    progress: &mut dyn FnMut(Progress),
+    engine: impl FnOnce(&mut Chip<'c, S>, Option<u64>, fast::Progress<'_>) -> Result<u64, ChipError>,
 ) -> Result<(Output, S), ChipError> {
     let total = chip.pixel_count;
     let mut tick = |cycle: u64, pixels_done: u64, rays: u64| {
@@ -156,10 +191,7 @@ pub fn run_chip<S: Source>(
             rays,
         })
     };
-    let last = match opts.engine {
-        Engine::Fast => fast::run(&mut chip, opts.cycle_limit, &mut tick)?,
-        Engine::Reference => reference::run(&mut chip, opts.cycle_limit, &mut tick)?,
-    };
+    let last = engine(&mut chip, opts.cycle_limit, &mut tick)?;
     let (out, src) = chip.finish(last, opts, program)?;
     progress(Progress {
         cycle: out.report.cycles,

@@ -84,6 +84,7 @@ fn run(cfg: &TraxConfig, block: &[Inst], scripts: &[bool], engine: Engine) -> Ou
         engine,
         cycle_limit: None,
         seed: 1,
+        threads: 1,
     };
     let last = match engine {
         Engine::Fast => crate::fast::run(&mut chip, None, &mut |_, _, _| {}).unwrap(),

@@ -108,3 +108,67 @@ fn shared_scenes() {
     check("sibenik", (16, 12), WorkloadKind::Path, 1, &chip(2, 8));
     check("conference", (12, 10), WorkloadKind::Path, 1, &chip(1, 8));
 }
+
+/// The fast engine on `threads` host threads equals it on one: cycles, every stat, the image,
+/// the per-pixel cycles.
+fn check_threads(scene: &str, size: (u32, u32), kind: WorkloadKind, cfg: &TraxConfig) {
+    let Some(w) = world(scene, size.0, size.1) else {
+        return;
+    };
+    let p = params(&w, kind, 1);
+    let pixels = all_pixels(&w);
+    let one = simulate(&w, &p, cfg, Engine::Fast, &pixels);
+    for threads in [2, 3, 4] {
+        let many = simulate_threads(&w, &p, cfg, Engine::Fast, &pixels, None, threads);
+        assert_engines_agree(&many, &one);
+        // The whole report (DRAM, energy, every counter) but the engine's name.
+        let json = |o: &Output| serde_json::to_string(&o.report).unwrap();
+        assert_eq!(json(&many), json(&one), "{threads} threads");
+    }
+}
+
+#[test]
+fn host_threads_change_nothing() {
+    // Enough TPs per cycle that the cycles really run on several threads.
+    check_threads("cornell", (24, 16), WorkloadKind::Path, &chip(4, 16));
+    check_threads("cornell", (16, 12), WorkloadKind::Ao, &chip(3, 12));
+    check_threads("sibenik", (20, 16), WorkloadKind::Path, &chip(5, 16));
+}
+
+#[test]
+fn host_threads_change_nothing_under_contention() {
+    // Tiny L1s with two MSHRs and a small write buffer (refusals whose retry is the next
+    // event), a one-bank L2 (the order of the cycle's sends decides who waits), a
+    // one-access-per-cycle counter (TMs stop at it often), few fetch ports.
+    let mut cfg = chip(4, 16);
+    cfg.l2.banks = 1;
+    cfg.l1.size_bytes = 1024;
+    cfg.l1.banks = 1;
+    cfg.l1.mshrs = 2;
+    cfg.l1.write_buffer = 1;
+    cfg.l2.size_bytes = 64 << 10;
+    cfg.atomic.count = 1;
+    cfg.fetches_per_bank = 1;
+    check_threads("cornell", (20, 16), WorkloadKind::Path, &cfg);
+    check_threads("sibenik", (16, 12), WorkloadKind::Primary, &cfg);
+}
+
+#[test]
+fn host_threads_change_nothing_in_a_stopped_run() {
+    let Some(w) = world("cornell", 24, 16) else {
+        return;
+    };
+    let cfg = chip(4, 16);
+    let p = params(&w, WorkloadKind::Path, 1);
+    let pixels = all_pixels(&w);
+    for limit in [57, 1000, 4321] {
+        let one = simulate_until(&w, &p, &cfg, Engine::Fast, &pixels, Some(limit));
+        let two = simulate_threads(&w, &p, &cfg, Engine::Fast, &pixels, Some(limit), 2);
+        assert_eq!(one.report.cycles, two.report.cycles, "limit {limit}");
+        assert_eq!(one.report.issue, two.report.issue, "limit {limit}");
+        assert_eq!(one.report.l1.stats, two.report.l1.stats, "limit {limit}");
+        assert_eq!(one.report.l2.stats, two.report.l2.stats, "limit {limit}");
+        assert_eq!(one.heat, two.heat, "limit {limit}");
+        assert_eq!(one.rays, two.rays, "limit {limit}");
+    }
+}

@@ -67,6 +67,7 @@ pub(crate) fn frame_on<O>(s: &Session, chip: Box<ChipRun<'_, O>>) -> Result<Ran<
             engine,
             cycle_limit: cfg.sim.cycle_limit,
             seed: cfg.seed,
+            threads: s.pool.current_num_threads(),
         },
         &mut |p| {
             bar.set_position(p.pixels_done);

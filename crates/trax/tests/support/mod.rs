@@ -123,6 +123,19 @@ pub fn simulate_until(
     pixels: &[u32],
     cycle_limit: Option<u64>,
 ) -> Output {
+    simulate_threads(w, p, cfg, engine, pixels, cycle_limit, 1)
+}
+
+/// [`simulate_until`] with the fast engine on `threads` host threads.
+pub fn simulate_threads(
+    w: &World,
+    p: &WorkloadParams,
+    cfg: &TraxConfig,
+    engine: Engine,
+    pixels: &[u32],
+    cycle_limit: Option<u64>,
+    threads: usize,
+) -> Output {
     let integ = Integrator::new(&w.scene, &w.tracer, p.clone());
     rtsim_trax::simulate(
         cfg,
@@ -138,6 +151,7 @@ pub fn simulate_until(
             engine,
             cycle_limit,
             seed: 1,
+            threads,
         },
         &mut |_| {},
     )

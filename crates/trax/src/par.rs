@@ -1,0 +1,738 @@
+//! The fast engine on several host threads ([`crate::Options::threads`]): the events,
+//! bookings and accesses of [`crate::fast`], cycle for cycle, with each cycle's work split
+//! between threads by TM. Results are bit-identical whatever the number of threads, and equal
+//! to the one-thread engine's (tests check both).
+//!
+//! Why the split is exact. Within a cycle of the fast engine — after the memory system's
+//! events of the cycle, which come first — a TM's offers and resumes touch only its own state
+//! (its TPs, their work, its calendar rows, its L1), except in three ways:
+//!
+//! 1. the atomic pixel counter, whose answer depends on every earlier access to it;
+//! 2. what its L1 sends towards the L2: events in the hierarchy's queue, whose order among
+//!    events of one cycle is the order of the accesses that made them;
+//! 3. an L1 refusal for lack of an MSHR or a write-buffer entry, whose retry cycle is the
+//!    hierarchy's next event — which the sends of the cycle's earlier accesses can bring
+//!    forward.
+//!
+//! The fast engine's order of accesses within a cycle is every TM's offers (TM by TM), then
+//! every TM's resumes (TM by TM). Here each thread takes a run of TMs and does, TM by TM, the
+//! TM's offers and then its resumes, with three changes: (1) an access to the atomic counter
+//! *stops* its TM, and the rest of that TM's cycle is done afterwards on one thread — first the
+//! offers of every stopped TM, then their resumes, TMs in order: the fast engine's order;
+//! (2) sends go to a log per round (offers, resumes) and TM, replayed into the hierarchy in
+//! that order; (3) such a refusal's retry is settled once every send of the cycle is known,
+//! from the hierarchy's next event at the start of the cycle and the sends before the refusal
+//! in that order. Nothing else a TM does in a cycle depends on another TM, so every TP books
+//! the same slots, offers the same accesses and gets the same answers as in the fast engine.
+//! Counters are summed per thread and added up at the end (integer sums; `max_stack` a
+//! maximum).
+//!
+//! Threads meet twice per cycle, so cycles with few TPs to handle run on one thread
+//! ([`PARALLEL_MIN`]); that choice changes nothing but speed.
+
+use crate::chip::{Atomic, Chip, ChipError, Core, Dec, Offered, Wait};
+use crate::fast::{AHEAD, Calendar, Progress, Wheel, insertion_sort};
+use crate::isa::{CLASSES, Class, UNIT_CLASSES};
+use crate::source::{TraxSource, counter_next};
+use crate::stats::{IssueStats, Stall};
+use crate::work::{Ctx, PixelDone, Work};
+use rtsim_cache::{LeafOutcome, LeafSend, Leaves, busy_retry};
+use rtsim_sim::Crew;
+use rtsim_trace::FrameStats;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// The two rounds of a cycle's accesses, in the fast engine's order.
+const OFFERS: usize = 0;
+const RESUMES: usize = 1;
+
+/// Cycles with fewer TPs due than this run on one thread: waking the others and waiting for
+/// them costs about as much as handling a few dozen TPs (assumed from the engine's cost per TP,
+/// 0.5–1 µs, against a few µs per hand-over; only speed depends on it).
+const PARALLEL_MIN: u32 = 24;
+
+/// What every thread reads and no thread writes during a cycle.
+struct Shared<'s, 'a> {
+    dec: &'s [Dec],
+    caps: &'s [[u8; UNIT_CLASSES]],
+    lat: &'s [u64; CLASSES],
+    fetch_cap: u8,
+    per_tm: usize,
+    icaches: usize,
+    ctx: &'s Ctx<'a>,
+}
+
+/// A refusal whose retry is the hierarchy's next event, to be settled at the end of the
+/// cycle: the TP, and where its access falls in the cycle's order (round, TM, and the sends
+/// of that TM's round before it).
+#[derive(Clone, Copy, Debug)]
+struct Busy {
+    tp: u32,
+    round: u8,
+    tm: u32,
+    sends_before: u32,
+}
+
+/// A TM stopped at an access to the atomic counter: in round `round`, at position `at` of
+/// its shard's offers (round [`OFFERS`]) or batch (round [`RESUMES`]: the TP whose booking
+/// reached the access in the current cycle).
+#[derive(Clone, Copy, Debug)]
+struct Stop {
+    tm: usize,
+    round: usize,
+    at: usize,
+}
+
+/// One thread's part of the chip: a run of TMs, their calendar rows and their TPs' wheel,
+/// and what it counts.
+#[derive(Debug)]
+struct Shard {
+    tm0: usize,
+    tms: usize,
+    tp0: usize,
+    cal: Calendar,
+    /// The shard's TPs by local index (`tp - tp0`).
+    wheel: Wheel,
+    issue: IssueStats,
+    frame: FrameStats,
+    rays: u64,
+    pixels_done: u64,
+    halted: usize,
+    done: Vec<PixelDone>,
+    /// The cycle's due TPs (global indices, ascending).
+    batch: Vec<u32>,
+    /// The cycle's offers: (TM, key, TP), ascending.
+    offers: Vec<(u32, u64, u32)>,
+    /// Per round and TM (`round * tms + tm - tm0`): what its accesses sent, in order.
+    sends: Vec<Vec<LeafSend>>,
+    busy: Vec<Busy>,
+    stops: Vec<Stop>,
+}
+
+impl Shard {
+    fn sends(&mut self, round: usize, tm: usize) -> &mut Vec<LeafSend> {
+        &mut self.sends[round * self.tms + tm - self.tm0]
+    }
+}
+
+/// The counter's side of an access on the thread that may take it: the slots, the counter,
+/// the per-pixel cycles and the TPs waiting for it.
+struct Counter<'c> {
+    unit: &'c mut Atomic,
+    count: u32,
+    next: &'c mut u32,
+    heat: &'c mut [u64],
+    /// (TM, key, TP) of the TPs it refused; their `access_at` holds the refusal's cycle.
+    waiting: &'c mut BinaryHeap<Reverse<(u32, u64, u32)>>,
+}
+
+/// A shard's TMs in one cycle: their state, and the counter when this thread may take it.
+struct Cx<'c, 's, 'a, 'h, 'k> {
+    sh: &'c Shared<'s, 'a>,
+    shard: &'c mut Shard,
+    cores: &'c mut [Core],
+    works: &'c mut [Work],
+    leaves: &'c mut Leaves<'h>,
+    counter: Option<Counter<'k>>,
+    round: usize,
+}
+
+impl Cx<'_, '_, '_, '_, '_> {
+    /// The shard's part of cycle `t`, TM by TM: its offers, then its resumes; TMs that reach
+    /// the atomic counter stop (recorded in `stops`).
+    fn cycle(&mut self, t: u64) {
+        let mut batch = std::mem::take(&mut self.shard.batch);
+        let mut offers = std::mem::take(&mut self.shard.offers);
+        self.shard.wheel.now = t;
+        self.shard.wheel.take(t, &mut batch);
+        let tp0 = self.shard.tp0 as u32;
+        for tp in batch.iter_mut() {
+            *tp += tp0;
+        }
+        offers.clear();
+        offers.extend(
+            batch
+                .iter()
+                .filter(|&&tp| self.core(tp as usize).wait == Wait::Access)
+                .map(|&tp| {
+                    let c = self.core(tp as usize);
+                    (c.tm, c.key, tp)
+                }),
+        );
+        insertion_sort(&mut offers);
+        let (mut o, mut b) = (0, 0);
+        for tm in self.shard.tm0..self.shard.tm0 + self.shard.tms {
+            let o_end = o + offers[o..].partition_point(|x| x.0 as usize == tm);
+            let b_end = b + batch[b..].partition_point(|&tp| self.tm_of(tp) == tm);
+            if let Some(stop) = self.tm_offers(tm, &offers[o..o_end], o, t) {
+                self.shard.stops.push(stop);
+            } else if let Some(stop) = self.tm_resumes(&batch[b..b_end], b, t) {
+                self.shard.stops.push(stop);
+            }
+            (o, b) = (o_end, b_end);
+        }
+        self.shard.batch = batch;
+        self.shard.offers = offers;
+    }
+
+    /// Finish a stopped TM's offers (this thread takes the counter): `offers` from the stop.
+    fn finish_offers(&mut self, stop: Stop, t: u64) {
+        let offers = std::mem::take(&mut self.shard.offers);
+        let end = stop.at + offers[stop.at..].partition_point(|x| x.0 as usize == stop.tm);
+        let left = self.tm_offers(stop.tm, &offers[stop.at..end], stop.at, t);
+        debug_assert!(left.is_none(), "the counter's thread does not stop");
+        self.shard.offers = offers;
+    }
+
+    /// Finish a stopped TM's resumes: all of them if it stopped in its offers, else from the
+    /// TP whose booking reached the counter (its access is offered first).
+    fn finish_resumes(&mut self, stop: Stop, t: u64) {
+        let batch = std::mem::take(&mut self.shard.batch);
+        let first = batch.partition_point(|&tp| self.tm_of(tp) < stop.tm);
+        let end = first + batch[first..].partition_point(|&tp| self.tm_of(tp) == stop.tm);
+        let from = if stop.round == OFFERS {
+            first
+        } else {
+            let tp = batch[stop.at] as usize;
+            let i = self.inst(tp);
+            match self.access(tp, i, t) {
+                Some(Offered::Accepted) => {
+                    let left = self.run_ahead(tp, t);
+                    debug_assert!(left.is_none(), "the counter's thread does not stop");
+                }
+                Some(Offered::Busy { retry_at }) => self.refused(tp, i, t, retry_at),
+                None => unreachable!("the counter's thread does not stop"),
+            }
+            stop.at + 1
+        };
+        let left = self.tm_resumes(&batch[from..end], from, t);
+        debug_assert!(left.is_none(), "the counter's thread does not stop");
+        self.shard.batch = batch;
+    }
+
+    fn core(&self, tp: usize) -> &Core {
+        &self.cores[tp - self.shard.tp0]
+    }
+
+    fn tm_of(&self, tp: u32) -> usize {
+        tp as usize / self.sh.per_tm
+    }
+
+    /// TP `tp`'s current instruction (it has one: it offers an access).
+    fn inst(&self, tp: usize) -> usize {
+        let c = self.core(tp);
+        (c.run.seg.start + c.ip) as usize
+    }
+
+    /// TM `tm`'s offers (`offers`, at position `at` of the shard's), in order.
+    fn tm_offers(
+        &mut self,
+        tm: usize,
+        offers: &[(u32, u64, u32)],
+        at: usize,
+        t: u64,
+    ) -> Option<Stop> {
+        self.round = OFFERS;
+        for (k, &(_, _, tp)) in offers.iter().enumerate() {
+            let tp = tp as usize;
+            debug_assert_eq!(self.core(tp).access_at, t);
+            let i = self.inst(tp);
+            match self.access(tp, i, t) {
+                None => {
+                    return Some(Stop {
+                        tm,
+                        round: OFFERS,
+                        at: at + k,
+                    });
+                }
+                Some(Offered::Busy { retry_at }) => self.refused(tp, i, t, retry_at),
+                Some(Offered::Accepted) => {}
+            }
+        }
+        None
+    }
+
+    /// A TM's resuming TPs (`batch`, at position `at` of the shard's batch), in order.
+    fn tm_resumes(&mut self, batch: &[u32], at: usize, t: u64) -> Option<Stop> {
+        self.round = RESUMES;
+        for (k, &tp) in batch.iter().enumerate() {
+            if let Some(&ahead) = batch.get(k + AHEAD) {
+                self.prefetch(ahead as usize);
+            }
+            let tp = tp as usize;
+            let core = &mut self.cores[tp - self.shard.tp0];
+            match core.wait {
+                // Refused this cycle: it waits for its retry.
+                Wait::Access | Wait::Halted => continue,
+                Wait::Ready | Wait::Blocked => {
+                    core.key = t;
+                    core.wait = Wait::Ready;
+                }
+            }
+            if self.run_ahead(tp, t).is_some() {
+                return Some(Stop {
+                    tm: tp / self.sh.per_tm,
+                    round: RESUMES,
+                    at: at + k,
+                });
+            }
+        }
+        None
+    }
+
+    fn prefetch(&self, tp: usize) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let l = tp - self.shard.tp0;
+            let core = self.cores.as_ptr().wrapping_add(l) as *const i8;
+            let work = self.works.as_ptr().wrapping_add(l) as *const i8;
+            for k in 0..std::mem::size_of::<Core>().div_ceil(64) {
+                // SAFETY: prefetching is a hint and never faults, even for a bad address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(core.wrapping_add(64 * k)) };
+            }
+            for k in 0..2 {
+                // SAFETY: as above.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(work.wrapping_add(64 * k)) };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = tp;
+    }
+
+    /// TP `tp`'s current instruction, its next run from its work when the current one is
+    /// finished; `None` once it has halted.
+    #[inline(always)]
+    fn current(&mut self, tp: usize) -> Option<usize> {
+        let l = tp - self.shard.tp0;
+        let c = &self.cores[l];
+        if c.ip < c.run.seg.len {
+            return Some((c.run.seg.start + c.ip) as usize);
+        }
+        self.next_run(l)
+    }
+
+    #[inline(never)]
+    fn next_run(&mut self, l: usize) -> Option<usize> {
+        let sh = &mut *self.shard;
+        let mut done = None;
+        let next = self.works[l].next(self.sh.ctx, &mut sh.frame, &mut sh.rays, &mut done);
+        if let Some(d) = done {
+            sh.done.push(d);
+            sh.pixels_done += 1;
+        }
+        let first = self.cores[l].start_run(next);
+        if first.is_none() {
+            sh.halted += 1;
+        }
+        first
+    }
+
+    /// As [`crate::fast`]'s `run_ahead`: book TP `tp`'s instructions with key `t` up to its
+    /// next access or an operand whose miss has not returned. `Some(())`: it stopped at an
+    /// access to the counter in cycle `t` (left waiting to offer it).
+    fn run_ahead(&mut self, tp: usize, t: u64) -> Option<()> {
+        let l = tp - self.shard.tp0;
+        let tm = self.cores[l].tm as usize;
+        let (ltm, lane) = {
+            let ltm = tm - self.shard.tm0;
+            (
+                ltm,
+                ltm * self.sh.icaches + tp % self.sh.per_tm % self.sh.icaches,
+            )
+        };
+        loop {
+            let i = self.current(tp)?;
+            let d = self.sh.dec[i];
+            let sh = &mut *self.shard;
+            let core = &mut self.cores[l];
+            if core.pending & d.regs != 0 {
+                core.wait = Wait::Blocked;
+                return None;
+            }
+            let e = core.operands_ready(&d, core.next_issue, &mut sh.issue);
+            debug_assert!(e >= t, "booking in the past: {e} < {t}");
+            let caps = &self.sh.caps[tm];
+            let c = sh
+                .cal
+                .book(ltm, lane, &d, caps, self.sh.fetch_cap, e, t, &mut sh.issue);
+            if !d.sync {
+                core.retire(&d, self.sh.lat[d.class as usize], c, &mut sh.issue);
+                continue;
+            }
+            core.wait = Wait::Access;
+            core.access_at = c;
+            if c > t {
+                sh.wheel.add(c, l);
+                return None;
+            }
+            // The access falls in the current cycle: offer it now, in this TP's turn.
+            match self.access(tp, i, t) {
+                None => return Some(()),
+                Some(Offered::Accepted) => self.cores[l].key = t,
+                Some(Offered::Busy { retry_at }) => {
+                    self.refused(tp, i, t, retry_at);
+                    return None;
+                }
+            }
+        }
+    }
+
+    /// Offer TP `tp`'s access `i` at `t`, as [`Chip::access`] does. `None`: it is an access to
+    /// the counter on a thread that may not take it (the TM stops). A refusal to be settled
+    /// at the end of the cycle is recorded and answers `Busy` at `u64::MAX` (not used).
+    fn access(&mut self, tp: usize, i: usize, t: u64) -> Option<Offered> {
+        let d = self.sh.dec[i];
+        let l = tp - self.shard.tp0;
+        let sh = &mut *self.shard;
+        match d.class {
+            Class::Atomic => {
+                let a = self.counter.as_mut()?;
+                if !a.unit.admit(t, a.count) {
+                    sh.issue.stall[Stall::Atomic as usize] += 1;
+                    return Some(Offered::Busy { retry_at: t + 1 });
+                }
+                let next_pixel = counter_next(a.next, &mut self.works[l], self.sh.ctx);
+                let lat = self.sh.lat[Class::Atomic as usize];
+                self.cores[l].atomic_granted(&d, lat, next_pixel, a.heat, t);
+            }
+            Class::Load | Class::Store => {
+                let core = &mut self.cores[l];
+                let tm = core.tm as usize;
+                let (out, send) = self.leaves.access(&core.data_request(&d, tp, t));
+                let log = sh.sends(self.round, tm);
+                let sends_before = log.len() as u32;
+                log.extend(send);
+                match out {
+                    LeafOutcome::Now(o) => {
+                        if let busy @ Offered::Busy { .. } =
+                            core.data_outcome(&d, o, t, &mut sh.issue)
+                        {
+                            return Some(busy);
+                        }
+                    }
+                    LeafOutcome::BusyUntilNextEvent(_) => {
+                        sh.busy.push(Busy {
+                            tp: tp as u32,
+                            round: self.round as u8,
+                            tm: tm as u32,
+                            sends_before,
+                        });
+                        return Some(Offered::Busy { retry_at: u64::MAX });
+                    }
+                }
+            }
+            _ => unreachable!("the TRaX program's accesses are data-cache and atomic ones"),
+        }
+        self.cores[l].accepted(&d, t, &mut sh.issue);
+        Some(Offered::Accepted)
+    }
+
+    /// TP `tp`'s access `i` was refused at `t`: it waits for the counter, or offers again at
+    /// `retry_at` (`u64::MAX`: settled at the end of the cycle).
+    fn refused(&mut self, tp: usize, i: usize, t: u64, retry_at: u64) {
+        let l = tp - self.shard.tp0;
+        let core = &mut self.cores[l];
+        if self.sh.dec[i].class == Class::Atomic {
+            let a = self
+                .counter
+                .as_mut()
+                .expect("refused by the counter on its thread");
+            core.access_at = t;
+            a.waiting.push(Reverse((core.tm, core.key, tp as u32)));
+            return;
+        }
+        if retry_at == u64::MAX {
+            return;
+        }
+        core.access_at = retry_at;
+        self.shard.wheel.add(retry_at, l);
+    }
+}
+
+/// Run the frame (to its end, or to `limit` cycles) on `threads` host
+/// threads (this one and `threads - 1` more); returns the last cycle processed. The same as [`crate::fast::run`], bit for bit.
+pub fn run(
+    chip: &mut Chip<'_, TraxSource<'_>>,
+    threads: usize,
+    limit: Option<u64>,
+    progress: Progress<'_>,
+) -> Result<u64, ChipError> {
+    let tms = chip.cfg.tms as usize;
+    let per_tm = chip.cfg.tps_per_tm as usize;
+    let icaches = chip.cfg.icaches_per_tm as usize;
+    let n = threads.clamp(1, tms);
+    let bounds: Vec<usize> = (0..=n).map(|k| k * tms / n).collect();
+    if chip.hier.leaves(0, &bounds)?.is_none() {
+        // A topology whose L1s cannot be lent out in runs: one thread.
+        return crate::fast::run(chip, limit, progress);
+    }
+    let mut shards: Vec<Shard> = bounds
+        .windows(2)
+        .map(|w| {
+            let (tm0, tms) = (w[0], w[1] - w[0]);
+            let tps = tms * per_tm;
+            let mut wheel = Wheel::new(tps, 1024);
+            for l in 0..tps {
+                wheel.add(0, l);
+            }
+            Shard {
+                tm0,
+                tms,
+                tp0: tm0 * per_tm,
+                cal: Calendar::new(tms, icaches, chip.cfg.icache_banks as usize, 256),
+                wheel,
+                issue: IssueStats::default(),
+                frame: FrameStats::default(),
+                rays: 0,
+                pixels_done: 0,
+                halted: 0,
+                done: Vec::new(),
+                batch: Vec::with_capacity(tps),
+                offers: Vec::with_capacity(tps),
+                sends: vec![Vec::new(); 2 * tms],
+                busy: Vec::new(),
+                stops: Vec::new(),
+            }
+        })
+        .collect();
+    // The other shards' threads (this one does the first shard and everything in between).
+    Crew::scope(n, |crew| {
+        run_shards(chip, crew, &bounds, &mut shards, limit, progress)
+    })
+}
+
+/// The cycles of [`run`], `shards` split at `bounds` (TMs), the crew taking a shard each.
+fn run_shards(
+    chip: &mut Chip<'_, TraxSource<'_>>,
+    crew: &Crew<'_>,
+    bounds: &[usize],
+    shards: &mut [Shard],
+    limit: Option<u64>,
+    progress: Progress<'_>,
+) -> Result<u64, ChipError> {
+    let per_tm = chip.cfg.tps_per_tm as usize;
+    let icaches = chip.cfg.icaches_per_tm as usize;
+    let owner = |tp: usize| bounds.partition_point(|&b| b * per_tm <= tp) - 1;
+    let mut waiting = BinaryHeap::new();
+    let mut done = std::mem::take(&mut chip.completions);
+    let mut last = 0;
+    let mut ticks = 0u32;
+    let live0 = chip.live;
+    loop {
+        let t_tp = shards.iter().filter_map(|s| s.wheel.next()).min();
+        let t_mem = chip.hier.next_event();
+        let Some(t) = t_tp.into_iter().chain(t_mem).min() else {
+            break;
+        };
+        if limit.is_some_and(|l| t >= l) {
+            break;
+        }
+        for s in shards.iter_mut() {
+            s.wheel.now = t;
+        }
+        if t_mem.is_some_and(|m| m <= t) {
+            chip.hier.advance_to(t)?;
+            chip.hier.drain_completions(&mut done);
+            for c in done.drain(..) {
+                debug_assert_eq!(c.ready, t);
+                let tp = chip.complete(&c);
+                let core = &chip.cores[tp];
+                if core.wait == Wait::Blocked {
+                    let i = (core.run.seg.start + core.ip) as usize;
+                    if core.pending & chip.dec[i].regs == 0 {
+                        let s = &mut shards[owner(tp)];
+                        s.wheel.add(t, tp - s.tp0);
+                    }
+                }
+            }
+        }
+        // The hierarchy's next event before any access of the cycle (refusals settle on it).
+        let next_event = chip.hier.next_event();
+        let due: u32 = shards.iter().map(|s| s.wheel.due(t)).sum();
+        {
+            let sh = Shared {
+                dec: &chip.dec,
+                caps: &chip.caps,
+                lat: &chip.lat,
+                fetch_cap: chip.fetch_cap,
+                per_tm,
+                icaches,
+                ctx: &chip.src.ctx,
+            };
+            let mut runs = chip.hier.leaves(t, bounds)?.expect("checked at the start");
+            let mut jobs = Vec::with_capacity(shards.len());
+            let (mut cores, mut works) = (&mut chip.cores[..], &mut chip.src.works[..]);
+            for (s, leaves) in shards.iter_mut().zip(runs.iter_mut()) {
+                let tps = s.tms * per_tm;
+                let (c, rest_c) = cores.split_at_mut(tps);
+                let (w, rest_w) = works.split_at_mut(tps);
+                (cores, works) = (rest_c, rest_w);
+                jobs.push(Cx {
+                    sh: &sh,
+                    shard: s,
+                    cores: c,
+                    works: w,
+                    leaves,
+                    counter: None,
+                    round: OFFERS,
+                });
+            }
+            if due >= PARALLEL_MIN {
+                crew.for_each(&mut jobs, |job| job.cycle(t));
+            } else {
+                for job in &mut jobs {
+                    job.cycle(t);
+                }
+            }
+        }
+        // The stopped TMs, on this thread with the counter: every offer, then every resume.
+        if shards.iter().any(|s| !s.stops.is_empty()) {
+            let sh = Shared {
+                dec: &chip.dec,
+                caps: &chip.caps,
+                lat: &chip.lat,
+                fetch_cap: chip.fetch_cap,
+                per_tm,
+                icaches,
+                ctx: &chip.src.ctx,
+            };
+            let mut runs = chip.hier.leaves(t, bounds)?.expect("checked at the start");
+            let counter = Counter {
+                unit: &mut chip.atomic,
+                count: chip.cfg.atomic.count,
+                next: &mut chip.src.next,
+                heat: &mut chip.heat,
+                waiting: &mut waiting,
+            };
+            for round in [OFFERS, RESUMES] {
+                let (mut cores, mut works) = (&mut chip.cores[..], &mut chip.src.works[..]);
+                for (s, leaves) in shards.iter_mut().zip(runs.iter_mut()) {
+                    let tps = s.tms * per_tm;
+                    let (c, rest_c) = cores.split_at_mut(tps);
+                    let (w, rest_w) = works.split_at_mut(tps);
+                    (cores, works) = (rest_c, rest_w);
+                    if s.stops.is_empty() {
+                        continue;
+                    }
+                    let stops = std::mem::take(&mut s.stops);
+                    let mut cx = Cx {
+                        sh: &sh,
+                        shard: s,
+                        cores: c,
+                        works: w,
+                        leaves,
+                        counter: Some(Counter {
+                            unit: &mut *counter.unit,
+                            count: counter.count,
+                            next: &mut *counter.next,
+                            heat: &mut *counter.heat,
+                            waiting: &mut *counter.waiting,
+                        }),
+                        round,
+                    };
+                    for &stop in &stops {
+                        if round == RESUMES {
+                            cx.finish_resumes(stop, t);
+                        } else if stop.round == OFFERS {
+                            cx.finish_offers(stop, t);
+                        }
+                    }
+                    if round == OFFERS {
+                        s.stops = stops;
+                    }
+                }
+            }
+        }
+        // The sends, in the fast engine's order, and the refusals that depend on them.
+        settle(chip, shards, next_event, t)?;
+        // End of the cycle: the first `count` TPs waiting for the counter offer again.
+        for _ in 0..chip.cfg.atomic.count {
+            let Some(Reverse((_, _, tp))) = waiting.pop() else {
+                break;
+            };
+            let tp = tp as usize;
+            let s = &mut shards[owner(tp)];
+            let c = &mut chip.cores[tp];
+            s.issue.stall[Stall::Atomic as usize] += t - c.access_at;
+            c.access_at = t + 1;
+            s.wheel.add(t + 1, tp - s.tp0);
+        }
+        last = t;
+        ticks += 1;
+        if ticks & 0x3FFF == 0 {
+            let (p, r) = shards
+                .iter()
+                .fold((chip.pixels_done, chip.rays_done), |(p, r), s| {
+                    (p + s.pixels_done, r + s.rays)
+                });
+            progress(t, p, r);
+        }
+        let halted: usize = shards.iter().map(|s| s.halted).sum();
+        if halted == live0 && t_tp.is_none() && shards.iter().all(|s| s.wheel.next().is_none()) {
+            // Every TP has halted; what remains in the memory system is drained by the caller.
+            break;
+        }
+    }
+    for Reverse((_, _, tp)) in waiting.drain() {
+        chip.issue.stall[Stall::Atomic as usize] += last - chip.cores[tp as usize].access_at;
+    }
+    for s in shards.iter_mut() {
+        chip.issue += &s.issue;
+        chip.frame += &s.frame;
+        chip.rays_done += s.rays;
+        chip.pixels_done += s.pixels_done;
+        chip.live -= s.halted;
+        for d in s.done.drain(..) {
+            chip.pixels[d.pixel as usize] = d.result();
+        }
+    }
+    chip.completions = done;
+    Ok(last)
+}
+
+/// Replay the cycle's sends into the hierarchy in the fast engine's order (every TM's offers,
+/// then every TM's resumes), and settle the refusals whose retry is the next event: the
+/// hierarchy's next event before the cycle's accesses (`next_event`), or the earliest send
+/// before the refusal in that order if sooner.
+fn settle(
+    chip: &mut Chip<'_, TraxSource<'_>>,
+    shards: &mut [Shard],
+    next_event: Option<u64>,
+    t: u64,
+) -> Result<(), ChipError> {
+    // Earliest send of the rounds and TMs before the current one.
+    let mut earliest = next_event;
+    let min = |a: Option<u64>, b: Option<u64>| match (a, b) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    };
+    for round in [OFFERS, RESUMES] {
+        for s in shards.iter_mut() {
+            for k in 0..s.tms {
+                let log = &s.sends[round * s.tms + k];
+                let tm = s.tm0 + k;
+                for b in &s.busy {
+                    if b.round as usize != round || b.tm as usize != tm {
+                        continue;
+                    }
+                    let first = log[..b.sends_before as usize].iter().map(|x| x.at).min();
+                    let retry_at = busy_retry(t, min(earliest, first));
+                    let tp = b.tp as usize;
+                    s.issue.stall[Stall::Memory as usize] += retry_at - t;
+                    chip.cores[tp].access_at = retry_at;
+                    s.wheel.add(retry_at, tp - s.tp0);
+                }
+                for x in log {
+                    chip.hier.replay(x)?;
+                }
+                earliest = min(earliest, log.iter().map(|x| x.at).min());
+                s.sends[round * s.tms + k].clear();
+            }
+        }
+    }
+    for s in shards {
+        s.busy.clear();
+    }
+    Ok(())
+}
