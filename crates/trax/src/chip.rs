@@ -284,6 +284,16 @@ impl Core {
         self.missed &= !(1 << r);
     }
 
+    /// A miss of this TP finished (`c`, tagged by [`Core::data_request`]); `miss_done` is the
+    /// TP's row of [`Chip::miss_done`].
+    #[inline]
+    pub(crate) fn complete(&mut self, c: &Completion, miss_done: &mut [u64; 32]) {
+        let r = (c.tag & 0xFF) as usize;
+        self.set_ready(r, c.ready);
+        self.pending &= !(1 << r);
+        miss_done[r] = c.ready;
+    }
+
     /// This TP's access `d` was accepted at `t`: it issues now.
     #[inline]
     pub(crate) fn accepted(&mut self, d: &Dec, t: u64, s: &mut IssueStats) {
@@ -313,6 +323,12 @@ impl Core {
             }
         }
     }
+}
+
+/// The TP a completion belongs to (its tag, [`Core::data_request`]).
+#[inline]
+pub(crate) fn completion_tp(c: &Completion) -> usize {
+    (c.tag >> 8) as usize
 }
 
 /// The atomic pixel counter's issue slots: `count` accesses per cycle.
@@ -617,12 +633,8 @@ impl<'a, S: Source> Chip<'a, S> {
     /// Apply a finished miss; returns the TP it belongs to.
     #[inline]
     pub(crate) fn complete(&mut self, c: &Completion) -> usize {
-        let tp = (c.tag >> 8) as usize;
-        let r = (c.tag & 0xFF) as usize;
-        let core = &mut self.cores[tp];
-        core.set_ready(r, c.ready);
-        core.pending &= !(1 << r);
-        self.miss_done[tp][r] = c.ready;
+        let tp = completion_tp(c);
+        self.cores[tp].complete(c, &mut self.miss_done[tp]);
         tp
     }
 

@@ -30,13 +30,13 @@
 //! Threads meet twice per cycle, so cycles with few TPs to handle run on one thread
 //! ([`PARALLEL_MIN`]); that choice changes nothing but speed.
 
-use crate::chip::{Atomic, Chip, ChipError, Core, Dec, Offered, Wait};
+use crate::chip::{Atomic, Chip, ChipError, Core, Dec, Offered, Wait, completion_tp};
 use crate::fast::{AHEAD, Calendar, Progress, Wheel, insertion_sort};
 use crate::isa::{CLASSES, Class, UNIT_CLASSES};
 use crate::source::{TraxSource, counter_next};
 use crate::stats::{IssueStats, Stall};
 use crate::work::{Ctx, PixelDone, Work};
-use rtsim_cache::{LeafOutcome, LeafSend, Leaves, busy_retry};
+use rtsim_cache::{Completion, LeafOutcome, LeafSend, Leaves, busy_retry};
 use rtsim_sim::Crew;
 use rtsim_trace::FrameStats;
 use std::cmp::Reverse;
@@ -99,6 +99,8 @@ struct Shard {
     pixels_done: u64,
     halted: usize,
     done: Vec<PixelDone>,
+    /// The misses of its TPs that finished this cycle.
+    completions: Vec<Completion>,
     /// The cycle's due TPs (global indices, ascending).
     batch: Vec<u32>,
     /// The cycle's offers: (TM, key, TP), ascending.
@@ -131,6 +133,8 @@ struct Cx<'c, 's, 'a, 'h, 'k> {
     sh: &'c Shared<'s, 'a>,
     shard: &'c mut Shard,
     cores: &'c mut [Core],
+    /// The shard's TPs' rows of [`Chip::miss_done`].
+    miss_done: &'c mut [[u64; 32]],
     works: &'c mut [Work],
     leaves: &'c mut Leaves<'h>,
     counter: Option<Counter<'k>>,
@@ -141,13 +145,26 @@ impl Cx<'_, '_, '_, '_, '_> {
     /// The shard's part of cycle `t`, TM by TM: its offers, then its resumes; TMs that reach
     /// the atomic counter stop (recorded in `stops`).
     fn cycle(&mut self, t: u64) {
+        // The cycle's returned misses first: TPs whose wait they end resume now.
+        let tp0 = self.shard.tp0;
+        for c in self.shard.completions.drain(..) {
+            let tp = completion_tp(&c);
+            let l = tp - tp0;
+            let core = &mut self.cores[l];
+            core.complete(&c, &mut self.miss_done[l]);
+            if core.wait == Wait::Blocked {
+                let i = (core.run.seg.start + core.ip) as usize;
+                if core.pending & self.sh.dec[i].regs == 0 {
+                    self.shard.wheel.add(t, l);
+                }
+            }
+        }
         let mut batch = std::mem::take(&mut self.shard.batch);
         let mut offers = std::mem::take(&mut self.shard.offers);
         self.shard.wheel.now = t;
         self.shard.wheel.take(t, &mut batch);
-        let tp0 = self.shard.tp0 as u32;
         for tp in batch.iter_mut() {
-            *tp += tp0;
+            *tp += tp0 as u32;
         }
         offers.clear();
         offers.extend(
@@ -462,6 +479,8 @@ pub fn run(
     let per_tm = chip.cfg.tps_per_tm as usize;
     let icaches = chip.cfg.icaches_per_tm as usize;
     let n = threads.clamp(1, tms);
+    // Even shares of TMs (a smaller share for this thread, which also does the sequential
+    // part of each cycle, measured slower on the reference machine).
     let bounds: Vec<usize> = (0..=n).map(|k| k * tms / n).collect();
     if chip.hier.leaves(0, &bounds)?.is_none() {
         // A topology whose L1s cannot be lent out in runs: one thread.
@@ -488,6 +507,7 @@ pub fn run(
                 pixels_done: 0,
                 halted: 0,
                 done: Vec::new(),
+                completions: Vec::new(),
                 batch: Vec::with_capacity(tps),
                 offers: Vec::with_capacity(tps),
                 sends: vec![Vec::new(); 2 * tms],
@@ -534,22 +554,18 @@ fn run_shards(
         if t_mem.is_some_and(|m| m <= t) {
             chip.hier.advance_to(t)?;
             chip.hier.drain_completions(&mut done);
+            // Each shard applies its own (its thread has its TPs' state at hand).
             for c in done.drain(..) {
                 debug_assert_eq!(c.ready, t);
-                let tp = chip.complete(&c);
-                let core = &chip.cores[tp];
-                if core.wait == Wait::Blocked {
-                    let i = (core.run.seg.start + core.ip) as usize;
-                    if core.pending & chip.dec[i].regs == 0 {
-                        let s = &mut shards[owner(tp)];
-                        s.wheel.add(t, tp - s.tp0);
-                    }
-                }
+                shards[owner(completion_tp(&c))].completions.push(c);
             }
         }
         // The hierarchy's next event before any access of the cycle (refusals settle on it).
         let next_event = chip.hier.next_event();
-        let due: u32 = shards.iter().map(|s| s.wheel.due(t)).sum();
+        let due: u32 = shards
+            .iter()
+            .map(|s| s.wheel.due(t) + s.completions.len() as u32)
+            .sum();
         {
             let sh = Shared {
                 dec: &chip.dec,
@@ -561,17 +577,21 @@ fn run_shards(
                 ctx: &chip.src.ctx,
             };
             let mut runs = chip.hier.leaves(t, bounds)?.expect("checked at the start");
+            // (One small allocation a cycle: the jobs borrow the cycle's slices.)
             let mut jobs = Vec::with_capacity(shards.len());
-            let (mut cores, mut works) = (&mut chip.cores[..], &mut chip.src.works[..]);
-            for (s, leaves) in shards.iter_mut().zip(runs.iter_mut()) {
-                let tps = s.tms * per_tm;
-                let (c, rest_c) = cores.split_at_mut(tps);
-                let (w, rest_w) = works.split_at_mut(tps);
-                (cores, works) = (rest_c, rest_w);
+            let tps = split_tps(
+                &mut chip.cores,
+                &mut chip.miss_done,
+                &mut chip.src.works,
+                bounds,
+                per_tm,
+            );
+            for ((s, leaves), (c, m, w)) in shards.iter_mut().zip(runs.iter_mut()).zip(tps) {
                 jobs.push(Cx {
                     sh: &sh,
                     shard: s,
                     cores: c,
+                    miss_done: m,
                     works: w,
                     leaves,
                     counter: None,
@@ -606,12 +626,14 @@ fn run_shards(
                 waiting: &mut waiting,
             };
             for round in [OFFERS, RESUMES] {
-                let (mut cores, mut works) = (&mut chip.cores[..], &mut chip.src.works[..]);
-                for (s, leaves) in shards.iter_mut().zip(runs.iter_mut()) {
-                    let tps = s.tms * per_tm;
-                    let (c, rest_c) = cores.split_at_mut(tps);
-                    let (w, rest_w) = works.split_at_mut(tps);
-                    (cores, works) = (rest_c, rest_w);
+                let tps = split_tps(
+                    &mut chip.cores,
+                    &mut chip.miss_done,
+                    &mut chip.src.works,
+                    bounds,
+                    per_tm,
+                );
+                for ((s, leaves), (c, m, w)) in shards.iter_mut().zip(runs.iter_mut()).zip(tps) {
                     if s.stops.is_empty() {
                         continue;
                     }
@@ -620,6 +642,7 @@ fn run_shards(
                         sh: &sh,
                         shard: s,
                         cores: c,
+                        miss_done: m,
                         works: w,
                         leaves,
                         counter: Some(Counter {
@@ -691,6 +714,30 @@ fn run_shards(
     Ok(last)
 }
 
+/// The per-TP state of each shard's TPs: cores, rows of `miss_done`, works.
+type TpSlices<'c> = (&'c mut [Core], &'c mut [[u64; 32]], &'c mut [Work]);
+
+/// The shards' slices (TMs `bounds[k]..bounds[k + 1]`) of the per-TP state.
+fn split_tps<'c>(
+    mut c: &'c mut [Core],
+    mut m: &'c mut [[u64; 32]],
+    mut w: &'c mut [Work],
+    bounds: &[usize],
+    per_tm: usize,
+) -> Vec<TpSlices<'c>> {
+    bounds
+        .windows(2)
+        .map(|b| {
+            let n = (b[1] - b[0]) * per_tm;
+            let (c0, c1) = std::mem::take(&mut c).split_at_mut(n);
+            let (m0, m1) = std::mem::take(&mut m).split_at_mut(n);
+            let (w0, w1) = std::mem::take(&mut w).split_at_mut(n);
+            (c, m, w) = (c1, m1, w1);
+            (c0, m0, w0)
+        })
+        .collect()
+}
+
 /// Replay the cycle's sends into the hierarchy in the fast engine's order (every TM's offers,
 /// then every TM's resumes), and settle the refusals whose retry is the next event: the
 /// hierarchy's next event before the cycle's accesses (`next_event`), or the earliest send
@@ -707,26 +754,34 @@ fn settle(
         (Some(a), Some(b)) => Some(a.min(b)),
         (a, b) => a.or(b),
     };
+    for s in shards.iter_mut() {
+        // Stopped TMs' refusals came after the others': in (round, TM) order again (a stable
+        // sort keeps each TM's in order).
+        s.busy.sort_by_key(|b| (b.round, b.tm));
+    }
     for round in [OFFERS, RESUMES] {
         for s in shards.iter_mut() {
+            let mut bi = s.busy.partition_point(|b| (b.round as usize) < round);
             for k in 0..s.tms {
-                let log = &s.sends[round * s.tms + k];
                 let tm = s.tm0 + k;
-                for b in &s.busy {
-                    if b.round as usize != round || b.tm as usize != tm {
-                        continue;
-                    }
+                let log = &s.sends[round * s.tms + k];
+                while let Some(b) = s
+                    .busy
+                    .get(bi)
+                    .filter(|b| b.round as usize == round && b.tm as usize == tm)
+                {
                     let first = log[..b.sends_before as usize].iter().map(|x| x.at).min();
                     let retry_at = busy_retry(t, min(earliest, first));
                     let tp = b.tp as usize;
                     s.issue.stall[Stall::Memory as usize] += retry_at - t;
                     chip.cores[tp].access_at = retry_at;
                     s.wheel.add(retry_at, tp - s.tp0);
+                    bi += 1;
                 }
                 for x in log {
                     chip.hier.replay(x)?;
+                    earliest = min(earliest, Some(x.at));
                 }
-                earliest = min(earliest, log.iter().map(|x| x.at).min());
                 s.sends[round * s.tms + k].clear();
             }
         }
