@@ -232,6 +232,26 @@ pub enum WriteDrainKind {
     /// Reads and writes together at every bank, FR-FCFS over both (DRAMsim3, whose per-bank
     /// command queues hold both kinds while writes drain).
     Mixed,
+    /// DRAMsim3's write buffer (needs `command_queue_depth` > 0): the drain starts when the
+    /// write queue (the writes not yet in command queues) holds `write_high_watermark` writes,
+    /// or more than `write_low_watermark` while every command queue is empty, and moves as
+    /// many writes into the command queues as the write queue held when it started; the drain
+    /// only decides which kind moves into the command queues, and each bank serves its command
+    /// queue, reads and writes together oldest first, in and out of drains.
+    Dramsim3,
+}
+
+/// How the controller chooses among the banks' ready offers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BankArbitration {
+    /// By the scheduler's priority (FR-FCFS: row hits first, then the oldest; FCFS: the
+    /// oldest), the lowest bank among equals.
+    Priority,
+    /// Round robin: the first bank with a ready offer after the bank of the last request
+    /// command (DRAMsim3's `GetCommandToIssue`, which visits its per-bank command queues in
+    /// turn); each bank's offer is still the scheduler's.
+    RoundRobin,
 }
 
 /// When rows are closed.
@@ -313,6 +333,9 @@ pub struct ControllerConfig {
     pub merge_writes: bool,
     /// Memory cycles to answer a read from the write queue. Default 1.
     pub forward_latency: u32,
+    /// `priority` (the scheduler's order across banks) or `round-robin` (DRAMsim3). Default
+    /// `priority`.
+    pub bank_arbitration: BankArbitration,
     /// `off` or `fast`. Default `off`.
     pub power_down: PowerDownKind,
     /// Idle memory cycles (no queued request for the rank) before a rank powers down.
@@ -447,6 +470,7 @@ impl Default for ControllerConfig {
             protect_row_hits: true,
             row_policy: RowPolicyKind::Open,
             write_drain: WriteDrainKind::ProtectRows,
+            bank_arbitration: BankArbitration::Priority,
             admission_delay: 0,
             command_queue_depth: 0,
             write_high_watermark: 40,
@@ -790,6 +814,13 @@ impl Validate for ControllerConfig {
             0,
             64,
         )?;
+        if c.write_drain == WriteDrainKind::Dramsim3 && c.command_queue_depth == 0 {
+            return Err(ConfigError::range(
+                "controller.command_queue_depth",
+                0,
+                "1..=64 with controller.write_drain = dramsim3",
+            ));
+        }
         check_range(
             "controller.write_high_watermark",
             c.write_high_watermark,
@@ -1079,6 +1110,14 @@ mod tests {
                 "controller.admission_delay",
             ),
             ("controller.write_drain=sometimes", "controller.write_drain"),
+            (
+                "controller.write_drain=dramsim3",
+                "controller.command_queue_depth",
+            ),
+            (
+                "controller.bank_arbitration=lottery",
+                "controller.bank_arbitration",
+            ),
             ("refresh.batch=9", "refresh.batch"),
             ("refresh.batch=0", "refresh.batch"),
         ];
