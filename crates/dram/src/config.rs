@@ -373,6 +373,10 @@ pub struct TraceConfig {
     /// (stands in for USIMM's reorder buffer; USIMM's 1channel.cfg uses ROBSIZE 64).
     /// 1..=1000000. Default 64.
     pub usimm_max_outstanding_reads: u32,
+    /// Requests issued per requester cycle at most, whatever the trace's times (later ones move
+    /// to the next cycle): 0 = no limit; 1 = DRAMsim3's trace front end, which offers one
+    /// request per cycle. 0..=1000000. Default 0.
+    pub max_per_cycle: u32,
 }
 
 impl Default for DramConfig {
@@ -500,6 +504,7 @@ impl Default for TraceConfig {
         TraceConfig {
             requester_clock_mhz: 1000.0,
             usimm_max_outstanding_reads: 64,
+            max_per_cycle: 0,
         }
     }
 }
@@ -578,6 +583,12 @@ impl Validate for DramConfig {
             "trace.usimm_max_outstanding_reads",
             self.trace.usimm_max_outstanding_reads,
             1,
+            1_000_000,
+        )?;
+        check_range(
+            "trace.max_per_cycle",
+            self.trace.max_per_cycle,
+            0,
             1_000_000,
         )?;
         // The mapping needs the organisation's field widths: parsing it checks that the address
@@ -1118,6 +1129,7 @@ mod tests {
                 "controller.bank_arbitration=lottery",
                 "controller.bank_arbitration",
             ),
+            ("trace.max_per_cycle=2000000", "trace.max_per_cycle"),
             ("refresh.batch=9", "refresh.batch"),
             ("refresh.batch=0", "refresh.batch"),
         ];
