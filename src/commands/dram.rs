@@ -179,6 +179,7 @@ pub fn run(args: DramArgs) -> Result<()> {
     }
     let opts = DriveOptions {
         max_outstanding_reads: max_outstanding,
+        max_per_cycle: config.trace.max_per_cycle,
     };
     // Pre-flight: the outputs are checked and staged before the run.
     let (files, outputs) = StatsOutputs::prepare(

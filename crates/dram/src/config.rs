@@ -232,6 +232,26 @@ pub enum WriteDrainKind {
     /// Reads and writes together at every bank, FR-FCFS over both (DRAMsim3, whose per-bank
     /// command queues hold both kinds while writes drain).
     Mixed,
+    /// DRAMsim3's write buffer (needs `command_queue_depth` > 0): the drain starts when the
+    /// write queue (the writes not yet in command queues) holds `write_high_watermark` writes,
+    /// or more than `write_low_watermark` while every command queue is empty, and moves as
+    /// many writes into the command queues as the write queue held when it started; the drain
+    /// only decides which kind moves into the command queues, and each bank serves its command
+    /// queue, reads and writes together oldest first, in and out of drains.
+    Dramsim3,
+}
+
+/// How the controller chooses among the banks' ready offers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BankArbitration {
+    /// By the scheduler's priority (FR-FCFS: row hits first, then the oldest; FCFS: the
+    /// oldest), the lowest bank among equals.
+    Priority,
+    /// Round robin: the first bank with a ready offer after the bank of the last request
+    /// command (DRAMsim3's `GetCommandToIssue`, which visits its per-bank command queues in
+    /// turn); each bank's offer is still the scheduler's.
+    RoundRobin,
 }
 
 /// When rows are closed.
@@ -313,6 +333,9 @@ pub struct ControllerConfig {
     pub merge_writes: bool,
     /// Memory cycles to answer a read from the write queue. Default 1.
     pub forward_latency: u32,
+    /// `priority` (the scheduler's order across banks) or `round-robin` (DRAMsim3). Default
+    /// `priority`.
+    pub bank_arbitration: BankArbitration,
     /// `off` or `fast`. Default `off`.
     pub power_down: PowerDownKind,
     /// Idle memory cycles (no queued request for the rank) before a rank powers down.
@@ -350,6 +373,10 @@ pub struct TraceConfig {
     /// (stands in for USIMM's reorder buffer; USIMM's 1channel.cfg uses ROBSIZE 64).
     /// 1..=1000000. Default 64.
     pub usimm_max_outstanding_reads: u32,
+    /// Requests issued per requester cycle at most, whatever the trace's times (later ones move
+    /// to the next cycle): 0 = no limit; 1 = DRAMsim3's trace front end, which offers one
+    /// request per cycle. 0..=1000000. Default 0.
+    pub max_per_cycle: u32,
 }
 
 impl Default for DramConfig {
@@ -447,6 +474,7 @@ impl Default for ControllerConfig {
             protect_row_hits: true,
             row_policy: RowPolicyKind::Open,
             write_drain: WriteDrainKind::ProtectRows,
+            bank_arbitration: BankArbitration::Priority,
             admission_delay: 0,
             command_queue_depth: 0,
             write_high_watermark: 40,
@@ -476,6 +504,7 @@ impl Default for TraceConfig {
         TraceConfig {
             requester_clock_mhz: 1000.0,
             usimm_max_outstanding_reads: 64,
+            max_per_cycle: 0,
         }
     }
 }
@@ -554,6 +583,12 @@ impl Validate for DramConfig {
             "trace.usimm_max_outstanding_reads",
             self.trace.usimm_max_outstanding_reads,
             1,
+            1_000_000,
+        )?;
+        check_range(
+            "trace.max_per_cycle",
+            self.trace.max_per_cycle,
+            0,
             1_000_000,
         )?;
         // The mapping needs the organisation's field widths: parsing it checks that the address
@@ -790,6 +825,13 @@ impl Validate for ControllerConfig {
             0,
             64,
         )?;
+        if c.write_drain == WriteDrainKind::Dramsim3 && c.command_queue_depth == 0 {
+            return Err(ConfigError::range(
+                "controller.command_queue_depth",
+                0,
+                "1..=64 with controller.write_drain = dramsim3",
+            ));
+        }
         check_range(
             "controller.write_high_watermark",
             c.write_high_watermark,
@@ -1079,6 +1121,15 @@ mod tests {
                 "controller.admission_delay",
             ),
             ("controller.write_drain=sometimes", "controller.write_drain"),
+            (
+                "controller.write_drain=dramsim3",
+                "controller.command_queue_depth",
+            ),
+            (
+                "controller.bank_arbitration=lottery",
+                "controller.bank_arbitration",
+            ),
+            ("trace.max_per_cycle=2000000", "trace.max_per_cycle"),
             ("refresh.batch=9", "refresh.batch"),
             ("refresh.batch=0", "refresh.batch"),
         ];

@@ -4,7 +4,9 @@
 //! arrival cycle (`When::At`) or `gap` cycles after the previous one was issued (`When::Gap`);
 //! when its queue is full it is retried every cycle until accepted (the driver jumps to the next
 //! event instead of ticking, with the same result), and later requests wait behind it. For USIMM
-//! traces an optional limit on outstanding reads stalls the stream until a read returns.
+//! traces an optional limit on outstanding reads stalls the stream until a read returns. An
+//! optional limit on requests per cycle (1: DRAMsim3's trace front end) moves the requests beyond
+//! it to the next cycle.
 
 use crate::dram::Dram;
 use crate::trace::{TraceRecord, When};
@@ -15,6 +17,8 @@ use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
 pub struct DriveOptions {
     /// Stall while this many reads are outstanding (USIMM traces).
     pub max_outstanding_reads: Option<u32>,
+    /// Issue at most this many requests per requester cycle; 0 = no limit.
+    pub max_per_cycle: u32,
 }
 
 /// What happened at the requester side.
@@ -71,6 +75,9 @@ pub fn drive<E>(
     };
     let mut sum = DriveSummary::default();
     let mut last_issue = 0u64;
+    // Requests issued in cycle `last_issue`.
+    let mut in_cycle = 0u64;
+    let per_cycle = u64::from(opts.max_per_cycle);
     for (id, rec) in records.into_iter().enumerate() {
         let rec = rec?;
         let wanted = match rec.when {
@@ -91,6 +98,9 @@ pub fn drive<E>(
             }
         }
         loop {
+            if per_cycle > 0 && in_cycle >= per_cycle && t == last_issue {
+                t += 1;
+            }
             if t > 0 && st.dram.now().is_none_or(|n| n < t - 1) {
                 st.advance(t - 1);
             }
@@ -114,6 +124,11 @@ pub fn drive<E>(
             }
         }
         sum.stall_cycles += t - wanted;
+        in_cycle = if sum.requests > 0 && t == last_issue {
+            in_cycle + 1
+        } else {
+            1
+        };
         last_issue = t;
         sum.requests += 1;
         match rec.op {

@@ -1,13 +1,13 @@
 //! The controller policies of issue 12, each checked against its expected timing: write drain
 //! that does not close rows queued reads need, the admission delay, batched refresh, per-bank
-//! command queues and USIMM's FCFS.
+//! command queues, USIMM's FCFS, DRAMsim3's write buffer and its round-robin bank arbitration.
 
 mod common;
 
 use common::*;
 use rtsim_core::{MemCompletion, MemOp, MemoryPort};
 use rtsim_dram::DramConfig;
-use rtsim_dram::config::{SchedulerKind, WriteDrainKind};
+use rtsim_dram::config::{BankArbitration, SchedulerKind, WriteDrainKind};
 use rtsim_dram::trace::Pattern;
 
 fn finish_of(out: &[MemCompletion], id: u64) -> u64 {
@@ -227,6 +227,80 @@ fn usimm_fcfs_takes_the_first_issuable_command_in_arrival_order() {
     assert!(hit_usimm < hit_fcfs);
 }
 
+/// Round robin across banks (DRAMsim3): three reads queued together at cycle 0 for closed
+/// banks 3, 1 and 2 (oldest first). ddr3-1600, requester at the memory clock: ACTs tRRD = 6
+/// apart at 0, 6 and 12, RDs tRCD = 11 later, data CL + burst = 15 after the RD, so the reads
+/// finish at 26, 32 and 38 in the order their ACTs went. By priority (FR-FCFS: the oldest
+/// ready) that is arrival order; round robin starts at bank 0 and takes the first bank with a
+/// ready offer after the last one served: banks 1, 2, 3.
+#[test]
+fn round_robin_serves_the_banks_in_turn() {
+    let run = |arb| {
+        let mut c = config("ddr3-1600");
+        c.refresh.enabled = false;
+        c.controller.bank_arbitration = arb;
+        let mhz = c.timing.clock_mhz;
+        let mut d = dram_at(&c, mhz);
+        for (id, bank) in [(1, 3), (2, 1), (3, 2)] {
+            let a = addr(&d, 0, 0, bank, 5, 0);
+            d.try_enqueue(req(id, a, MemOp::Read, 0)).unwrap();
+        }
+        let out = run_to_idle(&mut d);
+        assert_legal(&d);
+        [1, 2, 3].map(|id| finish_of(&out, id))
+    };
+    assert_eq!(run(BankArbitration::Priority), [26, 32, 38]);
+    assert_eq!(run(BankArbitration::RoundRobin), [38, 26, 32]);
+}
+
+/// DRAMsim3's write buffer (`write_drain = dramsim3`): a drain moves into the command queues
+/// as many writes as the write queue held when it started, one per cycle, and ends; it does not
+/// wait for them to issue. Four writes and four reads to eight banks at cycle 0, write queue 4 =
+/// high watermark: the drain starts at 0 and moves the writes at 0, 1, 2 and 3, so it lasts 3
+/// cycles. With `mixed` the drain lasts until the write queue (counting the writes in command
+/// queues) is down to the low watermark 2, i.e. until two writes have issued, after an ACT and
+/// tRCD (11) at least.
+#[test]
+fn dramsim3_drain_moves_the_queued_writes_and_ends() {
+    let run = |kind| {
+        let mut c = config("ddr3-1600");
+        c.refresh.enabled = false;
+        c.controller.command_queue_depth = 8;
+        c.controller.write_queue = 4;
+        c.controller.write_high_watermark = 4;
+        c.controller.write_low_watermark = 2;
+        c.controller.write_drain = kind;
+        let mhz = c.timing.clock_mhz;
+        let mut d = dram_at(&c, mhz);
+        for bank in 0..8u32 {
+            let op = if bank < 4 { MemOp::Write } else { MemOp::Read };
+            let a = addr(&d, 0, 0, bank, 7, 0);
+            d.try_enqueue(req(u64::from(bank), a, op, 0)).unwrap();
+        }
+        let out = run_to_idle(&mut d);
+        assert_legal(&d);
+        assert_eq!(out.len(), 8);
+        let s = d.stats();
+        (s.write_drain_episodes, s.write_drain_cycles)
+    };
+    assert_eq!(run(WriteDrainKind::Dramsim3), (1, 3));
+    let (episodes, cycles) = run(WriteDrainKind::Mixed);
+    assert_eq!(episodes, 1);
+    assert!(cycles > 11, "mixed drain lasted {cycles} cycles");
+}
+
+/// `write_drain = dramsim3` describes command queues: without them it is a configuration error.
+#[test]
+fn dramsim3_drain_needs_command_queues() {
+    let mut c = config("ddr3-1600");
+    c.controller.write_drain = WriteDrainKind::Dramsim3;
+    let e = rtsim_dram::Dram::new(&c, rtsim_dram::Requester::mhz(800.0)).unwrap_err();
+    assert!(
+        e.to_string().contains("controller.command_queue_depth"),
+        "{e}"
+    );
+}
+
 /// Every issue-12 knob, alone and in the combinations that reproduce DRAMsim3 and USIMM, on
 /// mixed random and row-local traffic across presets, in checking mode: every command is
 /// re-validated by the independent checker (tPPD and the write rank switch included), no
@@ -234,7 +308,7 @@ fn usimm_fcfs_takes_the_first_issuable_command_in_arrival_order() {
 #[test]
 fn issue_12_knobs_stay_legal_and_lose_nothing() {
     type Knob = fn(&mut DramConfig);
-    let knobs: [(&str, Knob); 9] = [
+    let knobs: [(&str, Knob); 11] = [
         ("defaults", |_| {}),
         ("writes-only", |c| {
             c.controller.write_drain = WriteDrainKind::WritesOnly
@@ -248,9 +322,21 @@ fn issue_12_knobs_stay_legal_and_lose_nothing() {
         ("usimm-fcfs", |c| {
             c.controller.scheduler = SchedulerKind::UsimmFcfs
         }),
-        ("DRAMsim3 settings", |c| {
+        ("round-robin", |c| {
+            c.controller.bank_arbitration = BankArbitration::RoundRobin
+        }),
+        ("command queues, mixed drain", |c| {
             c.controller.command_queue_depth = 8;
             c.controller.write_drain = WriteDrainKind::Mixed;
+        }),
+        ("DRAMsim3 settings", |c| {
+            c.controller.read_queue = 32;
+            c.controller.write_queue = 32;
+            c.controller.write_high_watermark = 32;
+            c.controller.write_low_watermark = 8;
+            c.controller.command_queue_depth = 8;
+            c.controller.write_drain = WriteDrainKind::Dramsim3;
+            c.controller.bank_arbitration = BankArbitration::RoundRobin;
             c.controller.admission_delay = 2;
             c.controller.row_hit_cap = 3;
             c.timing.t_rtrs_w2w = Some(0);

@@ -288,6 +288,42 @@ fn unprotected_row_hits_can_be_closed() {
     assert!(hit_u < hit_p, "{hit_u} vs {hit_p}");
 }
 
+/// `trace.max_per_cycle` (DRAMsim3's front end offers one request per cycle): four reads all
+/// timed at cycle 0 are issued at 0, 1, 2 and 3 with a limit of 1 (0 + 1 + 2 + 3 = 6 stall
+/// cycles), at 0, 0, 1 and 1 with a limit of 2, and all at 0 without a limit.
+#[test]
+fn max_per_cycle_moves_the_excess_to_the_next_cycle() {
+    let stalls = |limit| {
+        let mut c = config("ddr3-1600");
+        c.refresh.enabled = false;
+        let mut d = dram_at(&c, c.timing.clock_mhz);
+        let recs: Vec<_> = (0..4u32)
+            .map(|b| TraceRecord {
+                when: When::At(0),
+                op: MemOp::Read,
+                addr: addr(&d, 0, 0, b, 3, 0),
+            })
+            .collect();
+        let opts = DriveOptions {
+            max_per_cycle: limit,
+            ..DriveOptions::default()
+        };
+        let s = drive(
+            &mut d,
+            recs.into_iter().map(Ok::<_, Infallible>),
+            opts,
+            |_| {},
+        )
+        .unwrap();
+        assert_legal(&d);
+        assert_eq!(s.requests, 4);
+        s.stall_cycles
+    };
+    assert_eq!(stalls(0), 0);
+    assert_eq!(stalls(1), 6);
+    assert_eq!(stalls(2), 2);
+}
+
 fn arb_record() -> impl Strategy<Value = (u64, bool, u8)> {
     // Gaps, read/write, and a small address pool so that merging and forwarding happen.
     (0u64..6, any::<bool>(), 0u8..40)

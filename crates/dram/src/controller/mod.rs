@@ -17,7 +17,9 @@ pub mod row_policy;
 pub mod scheduler;
 
 use crate::checker::Checker;
-use crate::config::{ControllerConfig, PowerDownKind, SchedulerKind, WriteDrainKind};
+use crate::config::{
+    BankArbitration, ControllerConfig, PowerDownKind, SchedulerKind, WriteDrainKind,
+};
 use crate::engine::{CLOSED, Engine};
 use crate::spec::DramSpec;
 use crate::spec::Ratio;
@@ -72,6 +74,8 @@ pub struct Channel {
     /// Cycle of the last command or arrival per rank (power-down idleness).
     last_busy: Vec<u64>,
     write_mode: bool,
+    /// `write_drain = dramsim3`: writes still to move into command queues in this drain.
+    drain_budget: u32,
     drain_since: u64,
     occ_since: u64,
     /// Earliest cycle at which something can happen (u64::MAX: nothing scheduled).
@@ -112,8 +116,8 @@ impl Channel {
             index,
             engine: Engine::new(spec),
             q: RequestQueues::new(policy, banks, o.ranks as usize),
-            offers: Offers::new(banks, o.banks_per_group as usize),
-            alts: Offers::new(banks, o.banks_per_group as usize),
+            offers: Offers::new(banks, o.banks_per_group as usize, ctl.bank_arbitration),
+            alts: Offers::new(banks, o.banks_per_group as usize, ctl.bank_arbitration),
             use_alts: !ctl.protect_row_hits || ctl.scheduler == SchedulerKind::UsimmFcfs,
             direct_offers: ctl.protect_row_hits
                 && ctl.scheduler != SchedulerKind::UsimmFcfs
@@ -132,6 +136,7 @@ impl Channel {
             power: vec![RankPower::default(); o.ranks as usize],
             last_busy: vec![0; o.ranks as usize],
             write_mode: false,
+            drain_budget: 0,
             drain_since: 0,
             occ_since: 0,
             next_event: u64::MAX,
@@ -276,6 +281,10 @@ impl Channel {
         if self.ctl.command_queue_depth > 0 {
             // One request per cycle into its bank's command queue: writes while draining.
             if let Some(b) = self.q.transfer(self.served_op()) {
+                if self.write_mode && self.ctl.write_drain == WriteDrainKind::Dramsim3 {
+                    self.drain_budget = self.drain_budget.saturating_sub(1);
+                    self.update_mode(t);
+                }
                 self.mark_dirty(b);
             }
         }
@@ -409,6 +418,10 @@ impl Channel {
     /// stay until the low watermark unless there is still nothing else to do.
     #[inline]
     fn update_mode(&mut self, t: u64) {
+        if self.ctl.write_drain == WriteDrainKind::Dramsim3 {
+            self.update_mode_dramsim3(t);
+            return;
+        }
         let wq = self.q.writes_arrived;
         let rq = self.q.reads_arrived;
         let want = if self.write_mode {
@@ -417,6 +430,30 @@ impl Channel {
             wq >= self.ctl.write_high_watermark
         } || (rq == 0 && wq > 0);
         if want != self.write_mode {
+            self.switch_mode(want, t);
+        }
+    }
+
+    /// `write_drain = dramsim3` (DRAMsim3's `ScheduleTransaction`): drain when the write queue
+    /// (writes not yet in command queues) reaches the high watermark, or exceeds the low one
+    /// while every command queue is empty; a drain moves as many writes into the command queues
+    /// as the write queue held when it began. Also when no read is queued at all, so that the
+    /// last writes are served (DRAMsim3 answers writes on acceptance and may leave up to the
+    /// low watermark of them in its buffer indefinitely).
+    #[inline(never)]
+    fn update_mode_dramsim3(&mut self, t: u64) {
+        let staged = self.q.staged_len(MemOp::Write);
+        let want = if self.write_mode {
+            self.drain_budget > 0 && staged > 0
+        } else {
+            staged >= self.ctl.write_high_watermark
+                || (staged > self.ctl.write_low_watermark && self.q.in_cq_len() == 0)
+                || (staged > 0 && self.q.reads_arrived == 0)
+        };
+        if want != self.write_mode {
+            if want {
+                self.drain_budget = staged;
+            }
             self.switch_mode(want, t);
         }
     }
@@ -532,13 +569,14 @@ impl Channel {
             };
             return (offer, alt);
         }
-        if !self.write_mode {
+        if !self.write_mode && c.write_drain != WriteDrainKind::Dramsim3 {
             return offers(&self.q, served, &self.sched[b]);
         }
         match c.write_drain {
             WriteDrainKind::ProtectRows => unreachable!("handled above"),
             WriteDrainKind::WritesOnly => offers(&self.q, served, &self.sched[b]),
-            WriteDrainKind::Mixed => {
+            // Dramsim3: each bank's command queue in and out of drains.
+            WriteDrainKind::Mixed | WriteDrainKind::Dramsim3 => {
                 // Reads and writes of the bank together, oldest first.
                 let (r, w) = (&self.q.reads[b], &self.q.writes[b]);
                 self.merged_list.clear();
@@ -592,6 +630,10 @@ impl Channel {
         let pick = self.offers.scan(alts, &self.shared, t);
         *offers_min = pick.min_ready;
         if let Some((b, alt)) = pick.best {
+            if self.ctl.bank_arbitration == BankArbitration::RoundRobin {
+                self.offers.turn_after(b);
+                self.alts.turn_after(b);
+            }
             let c = if alt {
                 self.alts.cand[b]
             } else {
@@ -974,6 +1016,13 @@ struct Offers {
     /// The banks offering each calendar entry's kind, by calendar index.
     entries: Vec<CalendarOffers>,
     banks_per_group: usize,
+    /// `bank_arbitration = round-robin`: every offer has the same priority, and among equals
+    /// the first bank from `turn` on (cyclically) wins; `turn` is 0 otherwise, so the lowest
+    /// bank wins.
+    round_robin: bool,
+    turn: usize,
+    /// Banks − 1 (a power of two minus one).
+    bank_mask: usize,
 }
 
 /// The offers of one calendar entry (a bank group and a kind).
@@ -1022,9 +1071,12 @@ struct Pick {
 }
 
 impl Offers {
-    fn new(banks: usize, banks_per_group: usize) -> Self {
+    fn new(banks: usize, banks_per_group: usize, arbitration: BankArbitration) -> Self {
         let entries = banks / banks_per_group * SHARED_STRIDE;
         Offers {
+            round_robin: arbitration == BankArbitration::RoundRobin,
+            turn: 0,
+            bank_mask: banks - 1,
             cand: vec![Candidate::NONE; banks],
             slots: vec![OfferSlot::NONE; banks],
             entries: vec![
@@ -1066,7 +1118,11 @@ impl Offers {
                 self.cand[b] = c;
                 let slot = OfferSlot {
                     local: engine.bank_ready(k, b),
-                    priority: scheduler::priority(sched, &c),
+                    priority: if self.round_robin {
+                        0
+                    } else {
+                        scheduler::priority(sched, &c)
+                    },
                     shared_at: engine.group_index(b) * SHARED_STRIDE + k,
                 };
                 let e = &mut self.entries[slot.shared_at];
@@ -1076,6 +1132,12 @@ impl Offers {
             }
             None => OfferSlot::NONE,
         };
+    }
+
+    /// Round robin: bank `b` issued a request command; the next turn starts after it.
+    #[inline]
+    fn turn_after(&mut self, b: usize) {
+        self.turn = (b + 1) & self.bank_mask;
     }
 
     /// Does bank `b` offer `cmd`?
@@ -1128,7 +1190,9 @@ impl Offers {
                 if o.local > t || primary.is_some_and(|p| p.slots[b].ready(shared) <= t) {
                     continue;
                 }
-                if o.priority < best.0 || (o.priority == best.0 && b < best.1) {
+                // Among equals the first bank from `turn` on (the lowest bank when `turn` is 0).
+                let after = |x: usize| x.wrapping_sub(self.turn) & self.bank_mask;
+                if o.priority < best.0 || (o.priority == best.0 && after(b) < after(best.1)) {
                     *best = (o.priority, b, primary.is_some());
                 }
             }

@@ -279,6 +279,21 @@ impl RequestQueues {
         Some(b)
     }
 
+    /// Requests of kind `op` waiting for room in a command queue (the transaction queue).
+    #[inline]
+    pub fn staged_len(&self, op: MemOp) -> u32 {
+        match op {
+            MemOp::Read => self.staged_reads.len() as u32,
+            MemOp::Write => self.staged_writes.len() as u32,
+        }
+    }
+
+    /// Requests in command queues.
+    #[inline]
+    pub fn in_cq_len(&self) -> u32 {
+        self.in_cq
+    }
+
     /// Could [`RequestQueues::transfer`] move a request of kind `op` now?
     pub fn can_transfer(&self, op: MemOp) -> bool {
         let depth = self.policy.command_queue_depth as usize;
