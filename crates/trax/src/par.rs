@@ -605,64 +605,56 @@ fn run_shards(
                     job.cycle(t);
                 }
             }
-        }
-        // The stopped TMs, on this thread with the counter: every offer, then every resume.
-        if shards.iter().any(|s| !s.stops.is_empty()) {
-            let sh = Shared {
-                dec: &chip.dec,
-                caps: &chip.caps,
-                lat: &chip.lat,
-                fetch_cap: chip.fetch_cap,
-                per_tm,
-                icaches,
-                ctx: &chip.src.ctx,
-            };
-            let mut runs = chip.hier.leaves(t, bounds)?.expect("checked at the start");
-            let counter = Counter {
-                unit: &mut chip.atomic,
-                count: chip.cfg.atomic.count,
-                next: &mut chip.src.next,
-                heat: &mut chip.heat,
-                waiting: &mut waiting,
-            };
-            for round in [OFFERS, RESUMES] {
-                let tps = split_tps(
-                    &mut chip.cores,
-                    &mut chip.miss_done,
-                    &mut chip.src.works,
-                    bounds,
-                    per_tm,
-                );
-                for ((s, leaves), (c, m, w)) in shards.iter_mut().zip(runs.iter_mut()).zip(tps) {
-                    if s.stops.is_empty() {
-                        continue;
-                    }
-                    let stops = std::mem::take(&mut s.stops);
-                    let mut cx = Cx {
-                        sh: &sh,
-                        shard: s,
-                        cores: c,
-                        miss_done: m,
-                        works: w,
-                        leaves,
-                        counter: Some(Counter {
-                            unit: &mut *counter.unit,
-                            count: counter.count,
-                            next: &mut *counter.next,
-                            heat: &mut *counter.heat,
-                            waiting: &mut *counter.waiting,
-                        }),
-                        round,
-                    };
-                    for &stop in &stops {
-                        if round == RESUMES {
-                            cx.finish_resumes(stop, t);
-                        } else if stop.round == OFFERS {
-                            cx.finish_offers(stop, t);
+            drop(jobs);
+            // The stopped TMs, on this thread with the counter: every offer, then every resume.
+            if shards.iter().any(|s| !s.stops.is_empty()) {
+                let counter = Counter {
+                    unit: &mut chip.atomic,
+                    count: chip.cfg.atomic.count,
+                    next: &mut chip.src.next,
+                    heat: &mut chip.heat,
+                    waiting: &mut waiting,
+                };
+                for round in [OFFERS, RESUMES] {
+                    let tps = split_tps(
+                        &mut chip.cores,
+                        &mut chip.miss_done,
+                        &mut chip.src.works,
+                        bounds,
+                        per_tm,
+                    );
+                    for ((s, leaves), (c, m, w)) in shards.iter_mut().zip(runs.iter_mut()).zip(tps)
+                    {
+                        if s.stops.is_empty() {
+                            continue;
                         }
-                    }
-                    if round == OFFERS {
-                        s.stops = stops;
+                        let stops = std::mem::take(&mut s.stops);
+                        let mut cx = Cx {
+                            sh: &sh,
+                            shard: s,
+                            cores: c,
+                            miss_done: m,
+                            works: w,
+                            leaves,
+                            counter: Some(Counter {
+                                unit: &mut *counter.unit,
+                                count: counter.count,
+                                next: &mut *counter.next,
+                                heat: &mut *counter.heat,
+                                waiting: &mut *counter.waiting,
+                            }),
+                            round,
+                        };
+                        for &stop in &stops {
+                            if round == RESUMES {
+                                cx.finish_resumes(stop, t);
+                            } else if stop.round == OFFERS {
+                                cx.finish_offers(stop, t);
+                            }
+                        }
+                        if round == OFFERS {
+                            s.stops = stops;
+                        }
                     }
                 }
             }
