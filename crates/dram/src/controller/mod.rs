@@ -18,7 +18,7 @@ pub mod scheduler;
 
 use crate::checker::Checker;
 use crate::config::{ControllerConfig, PowerDownKind, SchedulerKind, WriteDrainKind};
-use crate::engine::{CLOSED, Engine};
+use crate::engine::{BK, CALENDAR_LEN, CLOSED, Calendar, Engine};
 use crate::spec::DramSpec;
 use crate::spec::Ratio;
 use crate::spec::constraints::Cmd;
@@ -59,11 +59,6 @@ pub struct Channel {
     direct_offers: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
-    /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 4 + k`, kept
-    /// current after each command for the kinds it raises. An offer's earliest cycle is the
-    /// larger of its bank's own ready time and its entry here, so a command touches only the
-    /// few entries it raises instead of every bank's offer.
-    shared: Box<Calendar>,
     dirty: Vec<bool>,
     dirty_list: Vec<u32>,
     sched: Vec<BankSched>,
@@ -124,7 +119,6 @@ impl Channel {
                     + banks * ctl.command_queue_depth as usize,
             ),
             ctl,
-            shared: Box::new([0; CALENDAR_LEN]),
             dirty: vec![true; banks],
             dirty_list: (0..banks as u32).collect(),
             sched: vec![BankSched::default(); banks],
@@ -152,7 +146,6 @@ impl Channel {
             checker: spec.config.check.then(|| Checker::new(spec, index)),
             done: Vec::with_capacity((spec.controller().read_queue * 2) as usize),
         };
-        ch.update_shared(u8::MAX);
         ch.next_event = ch.compute_next_event(0);
         ch
     }
@@ -589,7 +582,7 @@ impl Channel {
         // Requests.
         self.settle_candidates();
         let alts = self.use_alts.then_some(&self.alts);
-        let pick = self.offers.scan(alts, &self.shared, t);
+        let pick = self.offers.scan(alts, self.engine.calendar(), t);
         *offers_min = pick.min_ready;
         if let Some((b, alt)) = pick.best {
             let c = if alt {
@@ -744,22 +737,7 @@ impl Channel {
             }
             _ => self.mark_dirty(b),
         }
-        self.update_shared(self.engine.shared_raise(cmd));
         self.settle_candidates();
-    }
-
-    /// Bring the calendar's entries of the kinds in `mask` (bit `1 << kind`) up to date.
-    #[inline]
-    fn update_shared(&mut self, mask: u8) {
-        // The bank kinds' bits, one at a time (a command raises one or two).
-        let mut kinds = mask & ((1 << BANK_KINDS) - 1);
-        while kinds != 0 {
-            let k = kinds.trailing_zeros() as usize;
-            kinds &= kinds - 1;
-            for g in 0..self.engine.groups() {
-                self.shared[(g * SHARED_STRIDE + k) % CALENDAR_LEN] = self.engine.group_ready(k, g);
-            }
-        }
     }
 
     /// A column command for the request in `slot`: classify it, schedule its completion (and
@@ -848,9 +826,9 @@ impl Channel {
     fn exact_next_event(&self, from: u64) -> u64 {
         debug_assert!(self.dirty_list.is_empty());
         let alts = self.use_alts.then_some(&self.alts);
-        let mut min = self.offers.min_ready(&self.shared);
+        let mut min = self.offers.min_ready(self.engine.calendar());
         if let Some(a) = alts {
-            min = min.min(a.min_ready(&self.shared));
+            min = min.min(a.min_ready(self.engine.calendar()));
         }
         self.next_event_from(from, min)
     }
@@ -949,16 +927,9 @@ impl Channel {
     }
 }
 
-/// Stride of a bank group's entries in the calendar of shared ready times (one per kind, so
-/// that the scans over the entries have no gaps).
-const SHARED_STRIDE: usize = BANK_KINDS;
-/// Entries of the calendar: every bank group of a channel (at most 16 ranks × 16 groups,
-/// `config::Organisation`'s limits). A fixed power-of-two size lets the scan index it without
-/// bounds checks.
-const CALENDAR_LEN: usize = 16 * 16 * SHARED_STRIDE;
-type Calendar = [u64; CALENDAR_LEN];
-/// Bank commands (ACT, PRE, RD, WR) as next commands: the kinds banks offer.
-const BANK_KINDS: usize = 4;
+/// Stride of a bank group's entries in the engine's calendar of shared ready times (one per
+/// bank-command kind, so that the scans over the entries have no gaps).
+const SHARED_STRIDE: usize = BK;
 
 /// One offer per bank: the candidate, and apart from it, packed for the scans, its priority,
 /// the bank's own ready time for it and where its shared ready time is in the channel's
