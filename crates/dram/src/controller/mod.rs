@@ -352,30 +352,66 @@ impl Channel {
     /// - after a PRE for the first request, the ACT for it (the bank's `pre_target`);
     /// - after an ACT for the first request, its column command (it hits the row just opened);
     /// - after a column command that leaves the row open, the column command of the first
-    ///   request if that hits the row (an open bank whose oldest request hits offers that).
+    ///   request if that hits the row (an open bank whose oldest request hits offers that);
+    ///   otherwise under FCFS the PRE for the first, under FR-FCFS the column command of the
+    ///   oldest hit (unless the row-hit cap has been reached) or else the PRE for the first —
+    ///   where no request of the other kind waits at the bank (`write_drain = protect-rows`
+    ///   would serve one wanting the open row before a PRE);
+    /// - after a column command with auto-precharge, the ACT for the first (the bank's
+    ///   `pre_target` was cleared by the ACT);
+    /// - with the served list empty, no offer.
     ///
     /// `None`: recompute from the lists.
     #[inline]
-    fn offer_after(&self, cmd: Cmd, b: usize, slot: u32) -> Option<Candidate> {
-        if !self.direct_offers {
+    fn offer_after(&self, cmd: Cmd, b: usize, slot: u32) -> Option<Option<Candidate>> {
+        if !self.direct_offers || self.rank_blocked(b >> self.rank_shift) {
             return None;
         }
-        let list = self.q.bank_list(self.served_op(), b);
-        let &first = list.first()?;
-        let column = || match self.q.get(first).op {
+        let (served, other) = if self.write_mode {
+            (&self.q.writes[b], &self.q.reads[b])
+        } else {
+            (&self.q.reads[b], &self.q.writes[b])
+        };
+        let Some(&first) = served.first() else {
+            return Some(None);
+        };
+        let column = |s: u32| match self.q.get(s).op {
             MemOp::Read => Cmd::Rd,
             MemOp::Write => Cmd::Wr,
         };
-        let (offer, hit) = match cmd {
-            Cmd::Pre if first == slot => (Cmd::Act, false),
-            Cmd::Act if first == slot => (column(), true),
-            Cmd::Rd | Cmd::Wr if self.q.row(first) == self.engine.open_row(b) => (column(), true),
+        let (offer, target, hit) = match cmd {
+            Cmd::Pre if first == slot => (Cmd::Act, first, false),
+            Cmd::Act if first == slot => (column(first), first, true),
+            Cmd::Rd | Cmd::Wr => {
+                let open_row = self.engine.open_row(b);
+                if self.q.row(first) == open_row {
+                    (column(first), first, true)
+                } else {
+                    let c = &self.ctl;
+                    let hit = match c.scheduler {
+                        SchedulerKind::FrFcfs
+                            if c.row_hit_cap == 0 || self.sched[b].streak < c.row_hit_cap =>
+                        {
+                            served.iter().copied().find(|&s| self.q.row(s) == open_row)
+                        }
+                        SchedulerKind::FrFcfs | SchedulerKind::Fcfs => None,
+                        SchedulerKind::UsimmFcfs => return None,
+                    };
+                    match hit {
+                        Some(h) => (column(h), h, true),
+                        None if c.write_drain == WriteDrainKind::ProtectRows
+                            && !other.is_empty() =>
+                        {
+                            return None;
+                        }
+                        None => (Cmd::Pre, first, false),
+                    }
+                }
+            }
+            Cmd::Rda | Cmd::Wra if self.sched[b].pre_target == NIL => (Cmd::Act, first, false),
             _ => return None,
         };
-        if self.rank_blocked(b >> self.rank_shift) {
-            return None;
-        }
-        Some(Candidate::for_request(&self.q, offer, first, hit))
+        Some(Some(Candidate::for_request(&self.q, offer, target, hit)))
     }
 
     #[inline]
@@ -732,8 +768,7 @@ impl Channel {
         }
         match self.offer_after(cmd, b, c.slot) {
             Some(o) if !self.dirty[b] => {
-                self.offers
-                    .set(b, Some(o), self.ctl.scheduler, &self.engine);
+                self.offers.set(b, o, self.ctl.scheduler, &self.engine);
             }
             _ => self.mark_dirty(b),
         }
