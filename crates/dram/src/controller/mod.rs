@@ -302,7 +302,13 @@ impl Channel {
             Admit::Queued => {
                 let b = e.bank as usize;
                 if !self.append_keeps_offer(b, slot, e.op) {
-                    self.mark_dirty(b);
+                    match self.offer_for_only(b, slot, e.op) {
+                        Some(o) if !self.dirty[b] => {
+                            self.offers
+                                .set(b, Some(o), self.ctl.scheduler, &self.engine);
+                        }
+                        _ => self.mark_dirty(b),
+                    }
                 }
             }
             Admit::Staged => {}
@@ -344,6 +350,42 @@ impl Channel {
         }
         let served_column = if self.write_mode { Cmd::Wr } else { Cmd::Rd };
         !self.dirty[b] && self.offers.offers_command(b, served_column)
+    }
+
+    /// The offer of bank `b` when `slot` (of kind `op`), just appended, is the only request of
+    /// its served list (`direct_offers`, rank not blocked): at a closed bank the ACT for it, at
+    /// an open bank its column command if it hits the row, else the PRE for it — where no
+    /// request of the other kind waits at the bank (`write_drain = protect-rows` would serve
+    /// one wanting the open row before a PRE). `None`: recompute from the lists.
+    #[inline]
+    fn offer_for_only(&self, b: usize, slot: u32, op: MemOp) -> Option<Candidate> {
+        if !self.direct_offers || op != self.served_op() || self.q.bank_list(op, b).len() != 1 {
+            return None;
+        }
+        if self.rank_blocked(b >> self.rank_shift) {
+            return None;
+        }
+        let open_row = self.engine.open_row(b);
+        let (cmd, hit) = if open_row == CLOSED {
+            (Cmd::Act, false)
+        } else if self.q.row(slot) == open_row {
+            let column = match op {
+                MemOp::Read => Cmd::Rd,
+                MemOp::Write => Cmd::Wr,
+            };
+            (column, true)
+        } else if self.ctl.write_drain == WriteDrainKind::ProtectRows
+            && !match op {
+                MemOp::Read => &self.q.writes[b],
+                MemOp::Write => &self.q.reads[b],
+            }
+            .is_empty()
+        {
+            return None;
+        } else {
+            (Cmd::Pre, false)
+        };
+        Some(Candidate::for_request(&self.q, cmd, slot, hit))
     }
 
     /// The offer of bank `b` right after `cmd` was issued there (for the request in `slot`),
