@@ -57,6 +57,10 @@ pub struct Channel {
     /// offer only in the ways [`Channel::append_keeps_offer`] checks, and a command often leaves
     /// the offer [`Channel::offer_after`] names.
     direct_offers: bool,
+    /// A power-down policy or command queues: events beside arrivals, refresh due times and
+    /// offers may come from [`Channel::rank_events`] even with no refresh pending and no rank
+    /// powered down.
+    rank_events_possible: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
     dirty: Vec<bool>,
@@ -114,6 +118,8 @@ impl Channel {
                 && ctl.scheduler != SchedulerKind::UsimmFcfs
                 && ctl.command_queue_depth == 0
                 && ctl.write_drain != WriteDrainKind::Mixed,
+            rank_events_possible: ctl.power_down != PowerDownKind::Off
+                || ctl.command_queue_depth > 0,
             merged_list: Vec::with_capacity(
                 (ctl.read_queue + ctl.write_queue) as usize
                     + banks * ctl.command_queue_depth as usize,
@@ -251,7 +257,6 @@ impl Channel {
     }
 
     fn step(&mut self, t: u64) {
-        self.integrate_occupancy(t);
         let mut admitted = false;
         while let Some(slot) = self.q.pop_arrived(t) {
             self.admit(slot, t);
@@ -296,6 +301,8 @@ impl Channel {
     }
 
     fn admit(&mut self, slot: u32, t: u64) {
+        // The queue lengths integrated over time change only by admitting and serving.
+        self.integrate_occupancy(t);
         let e = *self.q.get(slot);
         self.last_busy[e.rank as usize] = t;
         match self.q.admit(slot) {
@@ -820,6 +827,7 @@ impl Channel {
     /// A column command for the request in `slot`: classify it, schedule its completion (and
     /// that of requests merged into it) and free its queue slots.
     fn column(&mut self, slot: u32, b: usize, t: u64, cmd: Cmd) {
+        self.integrate_occupancy(t);
         self.q.unlist(slot);
         let e = *self.q.get(slot);
         let read = matches!(cmd, Cmd::Rd | Cmd::Rda);
@@ -912,15 +920,25 @@ impl Channel {
 
     /// The earliest cycle ≥ `from` at which something can happen, given the earliest ready
     /// time of any offer.
+    #[inline]
     fn next_event_from(&self, from: u64, offers_min: u64) -> u64 {
+        let mut e = offers_min
+            .min(self.q.next_arrival().unwrap_or(u64::MAX))
+            .min(self.refresh.next_due().unwrap_or(u64::MAX));
+        if self.rank_events_possible || self.refresh.any_pending() || self.engine.any_powered_down()
+        {
+            e = e.min(self.rank_events(from));
+        }
+        if e == u64::MAX { e } else { e.max(from) }
+    }
+
+    /// The earliest cycle ≥ `from` of a rank command (refresh preparation, power-down entry
+    /// or exit) or a transfer into a command queue (`u64::MAX` if none): the rare part of
+    /// [`Channel::next_event_from`], kept out of line.
+    #[inline(never)]
+    fn rank_events(&self, from: u64) -> u64 {
         let bpr = self.banks_per_rank;
         let mut e = u64::MAX;
-        if let Some(a) = self.q.next_arrival() {
-            e = e.min(a);
-        }
-        if let Some(d) = self.refresh.next_due() {
-            e = e.min(d);
-        }
         let rank_events = self.refresh.any_pending()
             || self.engine.any_powered_down()
             || self.ctl.power_down != PowerDownKind::Off;
@@ -950,11 +968,10 @@ impl Channel {
                 e = e.min(at);
             }
         }
-        e = e.min(offers_min);
         if self.ctl.command_queue_depth > 0 && self.q.can_transfer(self.served_op()) {
             e = e.min(from);
         }
-        if e == u64::MAX { e } else { e.max(from) }
+        e
     }
 
     /// Close the books at cycle `end` (exclusive): occupancy, write-drain time and background
