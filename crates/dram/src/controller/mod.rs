@@ -61,6 +61,9 @@ pub struct Channel {
     /// offers may come from [`Channel::rank_events`] even with no refresh pending and no rank
     /// powered down.
     rank_events_possible: bool,
+    /// One requester tag: its counters are the channel's, copied by [`Channel::finish`]
+    /// instead of counted twice.
+    single_tag: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
     dirty: Vec<bool>,
@@ -118,6 +121,7 @@ impl Channel {
                 && ctl.scheduler != SchedulerKind::UsimmFcfs
                 && ctl.command_queue_depth == 0
                 && ctl.write_drain != WriteDrainKind::Mixed,
+            single_tag: spec.tags == 1,
             rank_events_possible: ctl.power_down != PowerDownKind::Off
                 || ctl.command_queue_depth > 0,
             merged_list: Vec::with_capacity(
@@ -166,15 +170,15 @@ impl Channel {
     /// not before the first unsimulated cycle.
     pub fn enqueue(&mut self, e: Entry) {
         debug_assert!(e.arrival_mem >= self.done_below);
-        let tag = &mut self.stats.per_tag[e.tag as usize];
         match e.op {
-            MemOp::Read => {
-                self.stats.reads += 1;
-                tag.reads += 1;
-            }
-            MemOp::Write => {
-                self.stats.writes += 1;
-                tag.writes += 1;
+            MemOp::Read => self.stats.reads += 1,
+            MemOp::Write => self.stats.writes += 1,
+        }
+        if !self.single_tag {
+            let tag = &mut self.stats.per_tag[e.tag as usize];
+            match e.op {
+                MemOp::Read => tag.reads += 1,
+                MemOp::Write => tag.writes += 1,
             }
         }
         self.q.push_pending(e);
@@ -185,7 +189,9 @@ impl Channel {
 
     /// Count a refused request.
     pub fn refused(&mut self, op: MemOp, tag: u32) {
-        self.stats.per_tag[tag as usize].refused += 1;
+        if !self.single_tag {
+            self.stats.per_tag[tag as usize].refused += 1;
+        }
         match op {
             MemOp::Read => self.stats.reads_refused += 1,
             MemOp::Write => self.stats.writes_refused += 1,
@@ -847,9 +853,11 @@ impl Channel {
                 &mut s.write_row_conflicts,
             )
         };
-        let tag = &mut s.per_tag[e.tag as usize];
-        tag.column_accesses += 1;
-        tag.row_hits += u64::from(!e.act_for);
+        if !self.single_tag {
+            let tag = &mut s.per_tag[e.tag as usize];
+            tag.column_accesses += 1;
+            tag.row_hits += u64::from(!e.act_for);
+        }
         match (e.act_for, e.pre_for) {
             (false, _) => {
                 *hits += 1;
@@ -881,9 +889,11 @@ impl Channel {
                 self.stats.reads_done += 1;
                 self.stats.read_latency_mem.record(lat_mem);
                 self.stats.read_latency_req.record(lat_req);
-                self.stats.per_tag[e.tag as usize]
-                    .read_latency_req
-                    .record(lat_req);
+                if !self.single_tag {
+                    self.stats.per_tag[e.tag as usize]
+                        .read_latency_req
+                        .record(lat_req);
+                }
             }
             MemOp::Write => {
                 self.stats.writes_done += 1;
@@ -978,6 +988,17 @@ impl Channel {
     /// states are accounted up to `end`, and stats take the background cycles.
     pub fn finish(&mut self, end: u64) {
         self.integrate_occupancy(end);
+        if self.single_tag {
+            let s = &mut self.stats;
+            s.per_tag[0] = TagStats {
+                reads: s.reads,
+                writes: s.writes,
+                refused: s.reads_refused + s.writes_refused,
+                column_accesses: s.column_reads + s.column_writes,
+                row_hits: s.read_row_hits + s.write_row_hits,
+                read_latency_req: s.read_latency_req.clone(),
+            };
+        }
         if self.write_mode && end > self.drain_since {
             self.stats.write_drain_cycles += end - self.drain_since;
             self.drain_since = end;
