@@ -66,10 +66,11 @@ const SCOPE_OTHER_RANKS: u8 = 32;
 struct Window {
     window: usize,
     cycles: u64,
-    /// Ring of the last `window` ACT times, per rank.
-    rings: Vec<Vec<u64>>,
+    /// Per rank (at `rank × window`), a ring of the earliest next ACT each of the last `window`
+    /// ACTs allows (its time plus `cycles`); 0 where fewer ACTs have been issued, which allows
+    /// any time.
+    rings: Vec<u64>,
     heads: Vec<usize>,
-    counts: Vec<usize>,
 }
 
 /// Timing and state of one channel.
@@ -122,9 +123,8 @@ impl Engine {
                 windows.push(Window {
                     window: usize::from(c.window),
                     cycles: c.cycles,
-                    rings: vec![vec![0; usize::from(c.window)]; ranks],
+                    rings: vec![0; usize::from(c.window) * ranks],
                     heads: vec![0; ranks],
-                    counts: vec![0; ranks],
                 });
                 continue;
             }
@@ -334,18 +334,15 @@ impl Engine {
                 self.open_in_rank[rank] += 1;
                 let act = Cmd::Act.kind();
                 for w in &mut self.windows {
-                    let ring = &mut w.rings[rank];
+                    let ring = &mut w.rings[rank * w.window..][..w.window];
                     let head = &mut w.heads[rank];
-                    ring[*head] = t;
-                    *head = (*head + 1) % w.window;
-                    w.counts[rank] = (w.counts[rank] + 1).min(w.window);
-                    if w.counts[rank] == w.window {
-                        // The oldest in the ring is the w-th most recent ACT: no ACT in the
-                        // rank before it plus the window's cycles.
-                        let at = ring[*head] + w.cycles;
-                        for g in rank * gpr..(rank + 1) * gpr {
-                            raise(&mut self.calendar[(g * BK + act) % CALENDAR_LEN], at);
-                        }
+                    ring[*head % w.window] = t + w.cycles;
+                    *head = if *head + 1 == w.window { 0 } else { *head + 1 };
+                    // The oldest in the ring is the w-th most recent ACT: no ACT in the rank
+                    // before it plus the window's cycles (0 before w ACTs: no constraint).
+                    let at = ring[*head % w.window];
+                    for g in rank * gpr..(rank + 1) * gpr {
+                        raise(&mut self.calendar[(g * BK + act) % CALENDAR_LEN], at);
                     }
                 }
             }

@@ -230,9 +230,9 @@ impl Channel {
     /// refresh was skipped.
     #[inline]
     fn skip_idle_refreshes(&mut self, limit: u64) -> bool {
-        if !self.refresh.enabled
+        if self.q.reads_arrived + self.q.writes_arrived > 0
+            || !self.refresh.enabled
             || self.ctl.power_down != PowerDownKind::Off
-            || self.q.reads_arrived + self.q.writes_arrived > 0
         {
             return false;
         }
@@ -287,8 +287,11 @@ impl Channel {
         self.done_below = t + 1;
         if let Some(c) = choice {
             self.issue(c, t);
-            // Serving a request changes the queue lengths the drain mode depends on.
-            self.update_mode(t + 1);
+            // Serving a request (a column command) changes the queue lengths the drain mode
+            // depends on.
+            if c.cmd.is_column() {
+                self.update_mode(t + 1);
+            }
             self.settle_candidates();
             self.next_event = self.exact_next_event(t + 1);
         } else {
