@@ -1050,7 +1050,7 @@ impl Channel {
 const SHARED_STRIDE: usize = BK;
 
 /// One offer per bank: the candidate, and apart from it, packed for the scans, its priority,
-/// the bank's own ready time for it and where its shared ready time is in the channel's
+/// the bank's own ready time for it and where its shared ready time is in the engine's
 /// calendar. The banks offering are also filed by calendar entry (bank group and kind): a
 /// bitmask of them and the smallest of their own ready times. An entry's offers are all ready
 /// no earlier than the larger of that minimum and the shared time, so the earliest ready time
