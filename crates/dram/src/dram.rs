@@ -95,23 +95,19 @@ impl Dram {
         &self.channels
     }
 
-    fn collect(&mut self) {
-        for ch in &mut self.channels {
-            if ch.done.is_empty() {
-                continue;
-            }
-            for c in ch.done.drain(..) {
-                // After every completion finishing no later: (finish, collection order).
-                if self.ready.back().is_none_or(|r| r.finish <= c.finish) {
-                    self.ready.push_back(c);
-                } else {
-                    let at = self
-                        .ready
-                        .iter()
-                        .rposition(|r| r.finish <= c.finish)
-                        .map_or(0, |i| i + 1);
-                    self.ready.insert(at, c);
-                }
+    /// Move the completions channel `ch` produced into `ready`, after every completion finishing
+    /// no later: (finish, collection order).
+    #[inline]
+    fn collect(ready: &mut VecDeque<MemCompletion>, ch: &mut Channel) {
+        for c in ch.done.drain(..) {
+            if ready.back().is_none_or(|r| r.finish <= c.finish) {
+                ready.push_back(c);
+            } else {
+                let at = ready
+                    .iter()
+                    .rposition(|r| r.finish <= c.finish)
+                    .map_or(0, |i| i + 1);
+                ready.insert(at, c);
             }
         }
     }
@@ -262,12 +258,16 @@ impl MemoryPort for Dram {
             .req_to_mem
             .ceil(cycle.saturating_add(1))
             .saturating_sub(1);
+        // Only a channel that runs produces completions: each is collected right after it runs,
+        // in channel order as before.
         for ch in &mut self.channels {
             if ch.next_event() <= limit {
                 ch.run_until(limit);
+                if !ch.done.is_empty() {
+                    Self::collect(&mut self.ready, ch);
+                }
             }
         }
-        self.collect();
         self.mem_done = limit + 1;
         self.now_req = Some(cycle);
     }

@@ -3,8 +3,10 @@
 //!
 //! Issuing a command at cycle `t` raises "earliest allowed" times for every later command kind
 //! at each level the table names (bank, bank group, rank, other ranks, channel) and records
-//! activation windows (tFAW, t32AW) in per-rank rings. The earliest legal cycle of a command is
-//! then the maximum of four lookups — O(1), which keeps the scheduler cheap. State rules (ACT
+//! activation windows (tFAW, t32AW) in per-rank rings. Bank commands' times are kept per bank
+//! and per bank group, a rank's (and the channel's) rules raising every group of the ranks
+//! they bind, so the earliest legal cycle of a bank command is the larger of two lookups — its
+//! bank's and its group's (the [`Calendar`] the scheduler reads) — and of a rank command one. State rules (ACT
 //! needs a closed bank, RD/WR the right open row, REF all banks closed, nothing but PDX while
 //! powered down) are checked separately by [`Engine::state_allows`]. One command per channel
 //! per cycle is the controller's rule; [`Engine::can_issue`] includes it.
@@ -18,20 +20,35 @@ const K: usize = Cmd::KINDS;
 /// Bank commands (ACT, PRE, RD, WR) have the kinds below this; rank commands above. Bank and
 /// bank-group rules only ever name bank commands as the next command, so the per-bank and
 /// per-group tables are this narrow (32 bytes per bank: cache-friendly scans).
-const BK: usize = 4;
+pub const BK: usize = 4;
+/// Rank commands' kinds (REF, PDE, PDX): `BK..K`.
+const RK: usize = K - BK;
+
+/// Bank groups a channel can have: 16 ranks × 16 groups (`config::Organisation`'s limits).
+const MAX_GROUPS: usize = 16 * 16;
+/// Entries of the [`Calendar`].
+pub const CALENDAR_LEN: usize = MAX_GROUPS * BK;
+/// The earliest cycle of each bank-command kind `k` allowed by the rules shared by the banks of
+/// flat bank group `g` (bank-group, rank, other-rank and channel rules, activation windows), at
+/// `g × BK + k`. A fixed power-of-two size lets the scheduler index it without bounds checks.
+pub type Calendar = [u64; CALENDAR_LEN];
 
 /// The delays one issued command imposes, by scope and next-command kind (0 = none): the
 /// table's rules for that command folded together (the largest delay per scope and kind), so
-/// that issuing is a fixed pass over a few short arrays. A channel rule is the same rule for
-/// the issuing rank and every other rank, so it is folded into `rank` and `other_ranks`; with
-/// one bank group per rank, a bank-group rule is a rank rule and is folded into `rank`. The
+/// that issuing is a fixed pass over a few short arrays. For bank commands a rank rule raises
+/// every group of the rank (`rank_groups`), an other-rank rule every group of the other ranks
+/// (`other_groups`), and a channel rule both; with one bank group per rank the issuing rank's
+/// only group is the issuing group, so its rank and channel rules are folded into `group`. Rank
+/// commands' times are kept per rank (`rank`, `other_ranks`, channel rules in both). The
 /// earliest times are maxima over the scopes, so folding changes none of them.
 #[derive(Clone, Copy, Debug, Default)]
 struct Delays {
     bank: [u32; BK],
     group: [u32; BK],
-    rank: [u32; K],
-    other_ranks: [u32; K],
+    rank_groups: [u32; BK],
+    other_groups: [u32; BK],
+    rank: [u32; RK],
+    other_ranks: [u32; RK],
     /// The arrays above holding a delay (`SCOPE_*` bits): issuing skips the others.
     scopes: u8,
 }
@@ -39,18 +56,21 @@ struct Delays {
 /// [`Delays::scopes`] bits.
 const SCOPE_BANK: u8 = 1;
 const SCOPE_GROUP: u8 = 2;
-const SCOPE_RANK: u8 = 4;
-const SCOPE_OTHER_RANKS: u8 = 8;
+const SCOPE_RANK_GROUPS: u8 = 4;
+const SCOPE_OTHER_GROUPS: u8 = 8;
+const SCOPE_RANK: u8 = 16;
+const SCOPE_OTHER_RANKS: u8 = 32;
 
 /// An activation window: at most `window` ACTs in any `cycles` cycles of one rank.
 #[derive(Clone, Debug)]
 struct Window {
     window: usize,
     cycles: u64,
-    /// Ring of the last `window` ACT times, per rank.
-    rings: Vec<Vec<u64>>,
+    /// Per rank (at `rank × window`), a ring of the earliest next ACT each of the last `window`
+    /// ACTs allows (its time plus `cycles`); 0 where fewer ACTs have been issued, which allows
+    /// any time.
+    rings: Vec<u64>,
     heads: Vec<usize>,
-    counts: Vec<usize>,
 }
 
 /// Timing and state of one channel.
@@ -58,19 +78,18 @@ struct Window {
 pub struct Engine {
     ranks: usize,
     banks_per_rank: usize,
-    /// log2(bank groups per rank), a power of two (`config::Organisation`): a group's rank is
-    /// a shift.
-    group_shift: u32,
+    /// Bank groups per rank (a power of two, `config::Organisation`).
+    groups_per_rank: usize,
+    /// Bank groups in the channel.
+    groups: usize,
     /// Delays by issued command (RDA also gets RD's rules, WRA WR's), window rules excluded.
     by_prev: Vec<Delays>,
     windows: Vec<Window>,
     bank_next: Vec<[u64; BK]>,
-    group_next: Vec<[u64; BK]>,
-    /// Rank-level earliest times, channel rules included (folded into every rank's).
-    rank_next: Vec<[u64; K]>,
-    /// For each issued command, a bit per next-command kind whose earliest time it can raise
-    /// beyond its own bank (bank group, rank, other ranks, channel, activation windows).
-    shared_raise: Vec<u8>,
+    /// Bank commands' earliest times shared by each group's banks.
+    calendar: Box<Calendar>,
+    /// Rank commands' earliest times (kind − `BK`), channel rules included.
+    rank_next: Vec<[u64; RK]>,
     /// Rank and bank-group index of each flat bank.
     rank_of: Vec<u32>,
     group_of: Vec<u32>,
@@ -90,7 +109,7 @@ impl Engine {
         let banks_per_rank = o.banks_per_rank as usize;
         let mut by_prev = vec![Delays::default(); Cmd::ALL.len()];
         let mut windows = Vec::new();
-        let mut shared_raise = vec![0u8; Cmd::ALL.len()];
+        let one_group = o.bank_groups == 1;
         for c in &spec.constraints {
             if c.cycles == 0 {
                 continue; // can never bind
@@ -104,40 +123,52 @@ impl Engine {
                 windows.push(Window {
                     window: usize::from(c.window),
                     cycles: c.cycles,
-                    rings: vec![vec![0; usize::from(c.window)]; ranks],
+                    rings: vec![0; usize::from(c.window) * ranks],
                     heads: vec![0; ranks],
-                    counts: vec![0; ranks],
                 });
                 continue;
             }
-            let mut shared_raise_bits = 0u8;
             let k = c.next.kind();
-            if c.scope != Scope::Bank {
-                shared_raise_bits |= 1 << k;
-            }
             // Timing values are validated to at most 10^7 cycles, sums far below 2^32.
             let cycles = u32::try_from(c.cycles).unwrap_or(u32::MAX);
+            let fold = |slot: &mut u32| *slot = (*slot).max(cycles);
             for issued in Cmd::ALL {
-                if c.prev.covers(issued) {
-                    let d = &mut by_prev[issued as usize];
-                    let fold = |slot: &mut u32| *slot = (*slot).max(cycles);
+                if !c.prev.covers(issued) {
+                    continue;
+                }
+                let d = &mut by_prev[issued as usize];
+                if k >= BK {
+                    // A rank command: rank-wide scopes only (asserted above).
+                    let r = k - BK;
                     match c.scope {
-                        Scope::Bank => fold(&mut d.bank[k]),
-                        Scope::BankGroup if o.bank_groups == 1 => fold(&mut d.rank[k]),
-                        Scope::BankGroup => fold(&mut d.group[k]),
-                        Scope::Rank => fold(&mut d.rank[k]),
-                        Scope::OtherRanks => fold(&mut d.other_ranks[k]),
+                        Scope::Rank | Scope::BankGroup | Scope::Bank => fold(&mut d.rank[r]),
+                        Scope::OtherRanks => fold(&mut d.other_ranks[r]),
                         Scope::Channel => {
-                            fold(&mut d.rank[k]);
-                            fold(&mut d.other_ranks[k]);
+                            fold(&mut d.rank[r]);
+                            fold(&mut d.other_ranks[r]);
                         }
                     }
-                    shared_raise[issued as usize] |= shared_raise_bits;
+                    continue;
+                }
+                // The issuing rank's groups: with one group per rank, the issuing group.
+                let own_rank = |d: &mut Delays| {
+                    if one_group {
+                        fold(&mut d.group[k]);
+                    } else {
+                        fold(&mut d.rank_groups[k]);
+                    }
+                };
+                match c.scope {
+                    Scope::Bank => fold(&mut d.bank[k]),
+                    Scope::BankGroup => fold(&mut d.group[k]),
+                    Scope::Rank => own_rank(d),
+                    Scope::OtherRanks => fold(&mut d.other_groups[k]),
+                    Scope::Channel => {
+                        own_rank(d);
+                        fold(&mut d.other_groups[k]);
+                    }
                 }
             }
-        }
-        if !windows.is_empty() {
-            shared_raise[Cmd::Act as usize] |= 1 << Cmd::Act.kind();
         }
         for d in &mut by_prev {
             let bit = |delays: &[u32], scope: u8| {
@@ -147,25 +178,29 @@ impl Engine {
                     0
                 }
             };
+            let many_ranks = |scope: u8| if ranks > 1 { scope } else { 0 };
             d.scopes = bit(&d.bank, SCOPE_BANK)
                 | bit(&d.group, SCOPE_GROUP)
+                | bit(&d.rank_groups, SCOPE_RANK_GROUPS)
+                | bit(&d.other_groups, many_ranks(SCOPE_OTHER_GROUPS))
                 | bit(&d.rank, SCOPE_RANK)
-                | if ranks > 1 {
-                    bit(&d.other_ranks, SCOPE_OTHER_RANKS)
-                } else {
-                    0
-                };
+                | bit(&d.other_ranks, many_ranks(SCOPE_OTHER_RANKS));
         }
+        let groups = ranks * o.bank_groups as usize;
+        assert!(
+            groups <= MAX_GROUPS,
+            "organisation validated to 16 x 16 groups"
+        );
         Engine {
-            shared_raise,
             ranks,
             banks_per_rank,
-            group_shift: o.bank_groups.trailing_zeros(),
+            groups_per_rank: o.bank_groups as usize,
+            groups,
             by_prev,
             windows,
             bank_next: vec![[0; BK]; ranks * banks_per_rank],
-            group_next: vec![[0; BK]; ranks * o.bank_groups as usize],
-            rank_next: vec![[0; K]; ranks],
+            calendar: Box::new([0; CALENDAR_LEN]),
+            rank_next: vec![[0; RK]; ranks],
             rank_of: (0..ranks * banks_per_rank)
                 .map(|b| (b / banks_per_rank) as u32)
                 .collect(),
@@ -195,39 +230,32 @@ impl Engine {
     #[inline]
     pub fn earliest(&self, cmd: Cmd, b: usize) -> u64 {
         let k = cmd.kind();
-        let rank = self.rank_of[b] as usize;
-        let mut t = self.rank_next[rank][k];
-        if !cmd.is_rank_command() {
-            t = t
-                .max(self.bank_next[b][k])
-                .max(self.group_next[self.group_of[b] as usize][k]);
+        if cmd.is_rank_command() {
+            self.rank_next[self.rank_of[b] as usize][k - BK]
+        } else {
+            self.bank_next[b][k].max(self.group_ready(k, self.group_of[b] as usize))
         }
-        t
     }
 
-    /// [`Engine::earliest`] for a bank command given by its kind index (`Cmd::kind`).
-    #[inline(always)]
-    pub fn earliest_bank(&self, k: usize, b: usize) -> u64 {
-        self.rank_next[self.rank_of[b] as usize][k]
-            .max(self.bank_next[b][k])
-            .max(self.group_next[self.group_of[b] as usize][k])
-    }
-
-    /// The bank's own part of [`Engine::earliest_bank`]: rules of bank scope only. It changes
-    /// only when a command is issued to bank `b`.
+    /// The bank's own part of [`Engine::earliest`] for bank-command kind `k`: rules of bank
+    /// scope only. It changes only when a command is issued to bank `b`.
     #[inline(always)]
     pub fn bank_ready(&self, k: usize, b: usize) -> u64 {
         self.bank_next[b][k]
     }
 
-    /// The shared part of [`Engine::earliest_bank`] for the banks of flat bank group `g`: rules
-    /// of bank-group, rank and channel scope (with other-rank rules and activation windows,
-    /// which raise the rank's entries). `earliest_bank(k, b) = max(bank_ready(k, b),
-    /// group_ready(k, group_index(b)))`; issuing a command changes it only for the kinds in
-    /// [`Engine::shared_raise`].
+    /// The shared part of [`Engine::earliest`] for bank-command kind `k` at the banks of flat
+    /// bank group `g`: `earliest(cmd, b) = max(bank_ready(k, b), group_ready(k,
+    /// group_index(b)))`.
     #[inline(always)]
     pub fn group_ready(&self, k: usize, g: usize) -> u64 {
-        self.group_next[g][k].max(self.rank_next[g >> self.group_shift][k])
+        self.calendar[(g * BK + k) % CALENDAR_LEN]
+    }
+
+    /// Every group's [`Engine::group_ready`], at `g × BK + k`.
+    #[inline(always)]
+    pub fn calendar(&self) -> &Calendar {
+        &self.calendar
     }
 
     /// Flat bank-group index (rank × groups per rank + group) of flat bank `b`.
@@ -238,7 +266,7 @@ impl Engine {
 
     /// Bank groups in the channel (all ranks).
     pub fn groups(&self) -> usize {
-        self.group_next.len()
+        self.groups
     }
 
     /// Does the bank/rank state allow `cmd` (to `row`, for ACT and column commands)?
@@ -274,11 +302,22 @@ impl Engine {
         let rank = self.rank_of[b] as usize;
         let group = self.group_of[b] as usize;
         let d = &self.by_prev[cmd as usize];
+        let gpr = self.groups_per_rank;
         if d.scopes & SCOPE_BANK != 0 {
             raise_all(&mut self.bank_next[b], &d.bank, t);
         }
         if d.scopes & SCOPE_GROUP != 0 {
-            raise_all(&mut self.group_next[group], &d.group, t);
+            raise_all(group_mut(&mut self.calendar, group), &d.group, t);
+        }
+        if d.scopes & SCOPE_RANK_GROUPS != 0 {
+            for g in rank * gpr..(rank + 1) * gpr {
+                raise_all(group_mut(&mut self.calendar, g), &d.rank_groups, t);
+            }
+        }
+        if d.scopes & SCOPE_OTHER_GROUPS != 0 {
+            for g in (0..self.groups).filter(|&g| g / gpr != rank) {
+                raise_all(group_mut(&mut self.calendar, g), &d.other_groups, t);
+            }
         }
         if d.scopes & SCOPE_RANK != 0 {
             raise_all(&mut self.rank_next[rank], &d.rank, t);
@@ -295,14 +334,15 @@ impl Engine {
                 self.open_in_rank[rank] += 1;
                 let act = Cmd::Act.kind();
                 for w in &mut self.windows {
-                    let ring = &mut w.rings[rank];
+                    let ring = &mut w.rings[rank * w.window..][..w.window];
                     let head = &mut w.heads[rank];
-                    ring[*head] = t;
-                    *head = (*head + 1) % w.window;
-                    w.counts[rank] = (w.counts[rank] + 1).min(w.window);
-                    if w.counts[rank] == w.window {
-                        // The oldest in the ring is the w-th most recent ACT.
-                        raise(&mut self.rank_next[rank][act], ring[*head] + w.cycles);
+                    ring[*head % w.window] = t + w.cycles;
+                    *head = if *head + 1 == w.window { 0 } else { *head + 1 };
+                    // The oldest in the ring is the w-th most recent ACT: no ACT in the rank
+                    // before it plus the window's cycles (0 before w ACTs: no constraint).
+                    let at = ring[*head % w.window];
+                    for g in rank * gpr..(rank + 1) * gpr {
+                        raise(&mut self.calendar[(g * BK + act) % CALENDAR_LEN], at);
                     }
                 }
             }
@@ -320,13 +360,6 @@ impl Engine {
             }
             Cmd::Rd | Cmd::Wr | Cmd::Ref => {}
         }
-    }
-
-    /// Kinds (bit `1 << kind`) whose earliest time at banks other than its own issuing `cmd`
-    /// may raise: the scheduler recomputes only offers of these kinds after an issue.
-    #[inline]
-    pub fn shared_raise(&self, cmd: Cmd) -> u8 {
-        self.shared_raise[cmd as usize]
     }
 
     /// The open row of flat bank `b`, or [`CLOSED`].
@@ -370,6 +403,13 @@ impl Engine {
     pub fn ranks(&self) -> usize {
         self.ranks
     }
+}
+
+/// Group `g`'s entries of the calendar.
+#[inline(always)]
+fn group_mut(calendar: &mut Calendar, g: usize) -> &mut [u64; BK] {
+    let at = (g % MAX_GROUPS) * BK;
+    (&mut calendar[at..at + BK]).try_into().expect("BK entries")
 }
 
 /// Raise each `next[k]` to `t + delay[k]` where the delay is not 0 (no rule).

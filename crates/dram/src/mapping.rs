@@ -86,6 +86,10 @@ struct Slice {
 #[derive(Clone, Debug)]
 pub struct AddressMapper {
     slices: Vec<Slice>,
+    /// Where every field is at most one slice (the usual case): each field's shift and mask
+    /// by `Field` index (mask 0 for an absent field), so decoding is a fixed shift and mask per
+    /// field instead of a pass over the slices.
+    whole_fields: Option<[(u32, u32); 6]>,
     line_shift: u32,
     banks_per_group: u32,
     /// True when the mapping names `bankgroup` separately from `bank`.
@@ -234,7 +238,16 @@ impl AddressMapper {
             shift += width;
         }
         slices.retain(|s| s.width > 0 && s.field != Field::Offset);
+        let mut whole = [(0u32, 0u32); 6];
+        let mut whole_ok = true;
+        for s in &slices {
+            let f = &mut whole[s.field as usize];
+            // Widths are at most 22 bits (rows; `config::Organisation`'s limits).
+            whole_ok &= f.1 == 0 && s.dest == 0 && s.width < 32;
+            *f = (s.shift, (1u32 << s.width.min(31)) - 1);
+        }
         Ok(AddressMapper {
+            whole_fields: whole_ok.then_some(whole),
             slices,
             line_shift: need(Field::Offset),
             banks_per_group: org.banks_per_group,
@@ -286,9 +299,15 @@ impl AddressMapper {
     #[inline]
     pub fn decode(&self, addr: u64) -> Location {
         let mut f = [0u32; 7];
-        for s in &self.slices {
-            let v = ((addr >> s.shift) & ((1u64 << s.width) - 1)) as u32;
-            f[s.field as usize] |= v << s.dest;
+        if let Some(w) = &self.whole_fields {
+            for (v, &(shift, mask)) in f.iter_mut().zip(w) {
+                *v = (addr >> shift) as u32 & mask;
+            }
+        } else {
+            for s in &self.slices {
+                let v = ((addr >> s.shift) & ((1u64 << s.width) - 1)) as u32;
+                f[s.field as usize] |= v << s.dest;
+            }
         }
         let mut bank = if self.split_groups {
             f[Field::BankGroup as usize] * self.banks_per_group + f[Field::Bank as usize]
@@ -301,7 +320,8 @@ impl AddressMapper {
         Location {
             channel: f[Field::Channel as usize],
             rank: f[Field::Rank as usize],
-            bank_group: bank / self.banks_per_group,
+            // A power of two (`config::Organisation`).
+            bank_group: bank >> self.banks_per_group.trailing_zeros(),
             bank,
             row: f[Field::Row as usize],
             column: f[Field::Column as usize],

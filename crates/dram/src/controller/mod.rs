@@ -20,7 +20,7 @@ use crate::checker::Checker;
 use crate::config::{
     BankArbitration, ControllerConfig, PowerDownKind, SchedulerKind, WriteDrainKind,
 };
-use crate::engine::{CLOSED, Engine};
+use crate::engine::{BK, CALENDAR_LEN, CLOSED, Calendar, Engine};
 use crate::spec::DramSpec;
 use crate::spec::Ratio;
 use crate::spec::constraints::Cmd;
@@ -59,13 +59,15 @@ pub struct Channel {
     /// offer only in the ways [`Channel::append_keeps_offer`] checks, and a command often leaves
     /// the offer [`Channel::offer_after`] names.
     direct_offers: bool,
+    /// A power-down policy or command queues: events beside arrivals, refresh due times and
+    /// offers may come from [`Channel::rank_events`] even with no refresh pending and no rank
+    /// powered down.
+    rank_events_possible: bool,
+    /// One requester tag: its counters are the channel's, copied by [`Channel::finish`]
+    /// instead of counted twice.
+    single_tag: bool,
     /// Scratch list for offers over reads and writes together (`write_drain = mixed`).
     merged_list: Vec<u32>,
-    /// The calendar of shared ready times: `Engine::group_ready(k, g)` at `g × 4 + k`, kept
-    /// current after each command for the kinds it raises. An offer's earliest cycle is the
-    /// larger of its bank's own ready time and its entry here, so a command touches only the
-    /// few entries it raises instead of every bank's offer.
-    shared: Box<Calendar>,
     dirty: Vec<bool>,
     dirty_list: Vec<u32>,
     sched: Vec<BankSched>,
@@ -123,12 +125,14 @@ impl Channel {
                 && ctl.scheduler != SchedulerKind::UsimmFcfs
                 && ctl.command_queue_depth == 0
                 && ctl.write_drain != WriteDrainKind::Mixed,
+            single_tag: spec.tags == 1,
+            rank_events_possible: ctl.power_down != PowerDownKind::Off
+                || ctl.command_queue_depth > 0,
             merged_list: Vec::with_capacity(
                 (ctl.read_queue + ctl.write_queue) as usize
                     + banks * ctl.command_queue_depth as usize,
             ),
             ctl,
-            shared: Box::new([0; CALENDAR_LEN]),
             dirty: vec![true; banks],
             dirty_list: (0..banks as u32).collect(),
             sched: vec![BankSched::default(); banks],
@@ -157,7 +161,6 @@ impl Channel {
             checker: spec.config.check.then(|| Checker::new(spec, index)),
             done: Vec::with_capacity((spec.controller().read_queue * 2) as usize),
         };
-        ch.update_shared(u8::MAX);
         ch.next_event = ch.compute_next_event(0);
         ch
     }
@@ -172,15 +175,15 @@ impl Channel {
     /// not before the first unsimulated cycle.
     pub fn enqueue(&mut self, e: Entry) {
         debug_assert!(e.arrival_mem >= self.done_below);
-        let tag = &mut self.stats.per_tag[e.tag as usize];
         match e.op {
-            MemOp::Read => {
-                self.stats.reads += 1;
-                tag.reads += 1;
-            }
-            MemOp::Write => {
-                self.stats.writes += 1;
-                tag.writes += 1;
+            MemOp::Read => self.stats.reads += 1,
+            MemOp::Write => self.stats.writes += 1,
+        }
+        if !self.single_tag {
+            let tag = &mut self.stats.per_tag[e.tag as usize];
+            match e.op {
+                MemOp::Read => tag.reads += 1,
+                MemOp::Write => tag.writes += 1,
             }
         }
         self.q.push_pending(e);
@@ -191,7 +194,9 @@ impl Channel {
 
     /// Count a refused request.
     pub fn refused(&mut self, op: MemOp, tag: u32) {
-        self.stats.per_tag[tag as usize].refused += 1;
+        if !self.single_tag {
+            self.stats.per_tag[tag as usize].refused += 1;
+        }
         match op {
             MemOp::Read => self.stats.reads_refused += 1,
             MemOp::Write => self.stats.writes_refused += 1,
@@ -230,9 +235,9 @@ impl Channel {
     /// refresh was skipped.
     #[inline]
     fn skip_idle_refreshes(&mut self, limit: u64) -> bool {
-        if !self.refresh.enabled
+        if self.q.reads_arrived + self.q.writes_arrived > 0
+            || !self.refresh.enabled
             || self.ctl.power_down != PowerDownKind::Off
-            || self.q.reads_arrived + self.q.writes_arrived > 0
         {
             return false;
         }
@@ -263,7 +268,6 @@ impl Channel {
     }
 
     fn step(&mut self, t: u64) {
-        self.integrate_occupancy(t);
         let mut admitted = false;
         while let Some(slot) = self.q.pop_arrived(t) {
             self.admit(slot, t);
@@ -292,8 +296,12 @@ impl Channel {
         self.done_below = t + 1;
         if let Some(c) = choice {
             self.issue(c, t);
-            // Serving a request changes the queue lengths the drain mode depends on.
-            self.update_mode(t + 1);
+            // Serving a request (a column command) changes the queue lengths the drain mode
+            // depends on; `write_drain = dramsim3` also looks at the command queues, which
+            // requests enter between commands, so it is re-evaluated after every command.
+            if c.cmd.is_column() || self.ctl.write_drain == WriteDrainKind::Dramsim3 {
+                self.update_mode(t + 1);
+            }
             self.settle_candidates();
             self.next_event = self.exact_next_event(t + 1);
         } else {
@@ -312,13 +320,21 @@ impl Channel {
     }
 
     fn admit(&mut self, slot: u32, t: u64) {
+        // The queue lengths integrated over time change only by admitting and serving.
+        self.integrate_occupancy(t);
         let e = *self.q.get(slot);
         self.last_busy[e.rank as usize] = t;
         match self.q.admit(slot) {
             Admit::Queued => {
                 let b = e.bank as usize;
                 if !self.append_keeps_offer(b, slot, e.op) {
-                    self.mark_dirty(b);
+                    match self.offer_for_only(b, slot, e.op) {
+                        Some(o) if !self.dirty[b] => {
+                            self.offers
+                                .set(b, Some(o), self.ctl.scheduler, &self.engine);
+                        }
+                        _ => self.mark_dirty(b),
+                    }
                 }
             }
             Admit::Staged => {}
@@ -362,36 +378,108 @@ impl Channel {
         !self.dirty[b] && self.offers.offers_command(b, served_column)
     }
 
+    /// The offer of bank `b` when `slot` (of kind `op`), just appended, is the only request of
+    /// its served list (`direct_offers`, rank not blocked): at a closed bank the ACT for it, at
+    /// an open bank its column command if it hits the row, else the PRE for it — where no
+    /// request of the other kind waits at the bank (`write_drain = protect-rows` would serve
+    /// one wanting the open row before a PRE). `None`: recompute from the lists.
+    #[inline]
+    fn offer_for_only(&self, b: usize, slot: u32, op: MemOp) -> Option<Candidate> {
+        if !self.direct_offers || op != self.served_op() || self.q.bank_list(op, b).len() != 1 {
+            return None;
+        }
+        if self.rank_blocked(b >> self.rank_shift) {
+            return None;
+        }
+        let open_row = self.engine.open_row(b);
+        let (cmd, hit) = if open_row == CLOSED {
+            (Cmd::Act, false)
+        } else if self.q.row(slot) == open_row {
+            let column = match op {
+                MemOp::Read => Cmd::Rd,
+                MemOp::Write => Cmd::Wr,
+            };
+            (column, true)
+        } else if self.ctl.write_drain == WriteDrainKind::ProtectRows
+            && !match op {
+                MemOp::Read => &self.q.writes[b],
+                MemOp::Write => &self.q.reads[b],
+            }
+            .is_empty()
+        {
+            return None;
+        } else {
+            (Cmd::Pre, false)
+        };
+        Some(Candidate::for_request(&self.q, cmd, slot, hit))
+    }
+
     /// The offer of bank `b` right after `cmd` was issued there (for the request in `slot`),
     /// where it follows from the command and the first request of the served list — its oldest,
     /// where the scheduler's ACT and PRE come from (`direct_offers`, rank not blocked):
     /// - after a PRE for the first request, the ACT for it (the bank's `pre_target`);
     /// - after an ACT for the first request, its column command (it hits the row just opened);
     /// - after a column command that leaves the row open, the column command of the first
-    ///   request if that hits the row (an open bank whose oldest request hits offers that).
+    ///   request if that hits the row (an open bank whose oldest request hits offers that);
+    ///   otherwise under FCFS the PRE for the first, under FR-FCFS the column command of the
+    ///   oldest hit (unless the row-hit cap has been reached) or else the PRE for the first —
+    ///   where no request of the other kind waits at the bank (`write_drain = protect-rows`
+    ///   would serve one wanting the open row before a PRE);
+    /// - after a column command with auto-precharge, the ACT for the first (the bank's
+    ///   `pre_target` was cleared by the ACT);
+    /// - with the served list empty, no offer.
     ///
     /// `None`: recompute from the lists.
     #[inline]
-    fn offer_after(&self, cmd: Cmd, b: usize, slot: u32) -> Option<Candidate> {
-        if !self.direct_offers {
+    fn offer_after(&self, cmd: Cmd, b: usize, slot: u32) -> Option<Option<Candidate>> {
+        if !self.direct_offers || self.rank_blocked(b >> self.rank_shift) {
             return None;
         }
-        let list = self.q.bank_list(self.served_op(), b);
-        let &first = list.first()?;
-        let column = || match self.q.get(first).op {
+        let (served, other) = if self.write_mode {
+            (&self.q.writes[b], &self.q.reads[b])
+        } else {
+            (&self.q.reads[b], &self.q.writes[b])
+        };
+        let Some(&first) = served.first() else {
+            return Some(None);
+        };
+        let column = |s: u32| match self.q.get(s).op {
             MemOp::Read => Cmd::Rd,
             MemOp::Write => Cmd::Wr,
         };
-        let (offer, hit) = match cmd {
-            Cmd::Pre if first == slot => (Cmd::Act, false),
-            Cmd::Act if first == slot => (column(), true),
-            Cmd::Rd | Cmd::Wr if self.q.row(first) == self.engine.open_row(b) => (column(), true),
+        let (offer, target, hit) = match cmd {
+            Cmd::Pre if first == slot => (Cmd::Act, first, false),
+            Cmd::Act if first == slot => (column(first), first, true),
+            Cmd::Rd | Cmd::Wr => {
+                let open_row = self.engine.open_row(b);
+                if self.q.row(first) == open_row {
+                    (column(first), first, true)
+                } else {
+                    let c = &self.ctl;
+                    let hit = match c.scheduler {
+                        SchedulerKind::FrFcfs
+                            if c.row_hit_cap == 0 || self.sched[b].streak < c.row_hit_cap =>
+                        {
+                            served.iter().copied().find(|&s| self.q.row(s) == open_row)
+                        }
+                        SchedulerKind::FrFcfs | SchedulerKind::Fcfs => None,
+                        SchedulerKind::UsimmFcfs => return None,
+                    };
+                    match hit {
+                        Some(h) => (column(h), h, true),
+                        None if c.write_drain == WriteDrainKind::ProtectRows
+                            && !other.is_empty() =>
+                        {
+                            return None;
+                        }
+                        None => (Cmd::Pre, first, false),
+                    }
+                }
+            }
+            Cmd::Rda | Cmd::Wra if self.sched[b].pre_target == NIL => (Cmd::Act, first, false),
             _ => return None,
         };
-        if self.rank_blocked(b >> self.rank_shift) {
-            return None;
-        }
-        Some(Candidate::for_request(&self.q, offer, first, hit))
+        Some(Some(Candidate::for_request(&self.q, offer, target, hit)))
     }
 
     #[inline]
@@ -627,7 +715,7 @@ impl Channel {
         // Requests.
         self.settle_candidates();
         let alts = self.use_alts.then_some(&self.alts);
-        let pick = self.offers.scan(alts, &self.shared, t);
+        let pick = self.offers.scan(alts, self.engine.calendar(), t);
         *offers_min = pick.min_ready;
         if let Some((b, alt)) = pick.best {
             if self.ctl.bank_arbitration == BankArbitration::RoundRobin {
@@ -781,32 +869,17 @@ impl Channel {
         }
         match self.offer_after(cmd, b, c.slot) {
             Some(o) if !self.dirty[b] => {
-                self.offers
-                    .set(b, Some(o), self.ctl.scheduler, &self.engine);
+                self.offers.set(b, o, self.ctl.scheduler, &self.engine);
             }
             _ => self.mark_dirty(b),
         }
-        self.update_shared(self.engine.shared_raise(cmd));
         self.settle_candidates();
-    }
-
-    /// Bring the calendar's entries of the kinds in `mask` (bit `1 << kind`) up to date.
-    #[inline]
-    fn update_shared(&mut self, mask: u8) {
-        // The bank kinds' bits, one at a time (a command raises one or two).
-        let mut kinds = mask & ((1 << BANK_KINDS) - 1);
-        while kinds != 0 {
-            let k = kinds.trailing_zeros() as usize;
-            kinds &= kinds - 1;
-            for g in 0..self.engine.groups() {
-                self.shared[(g * SHARED_STRIDE + k) % CALENDAR_LEN] = self.engine.group_ready(k, g);
-            }
-        }
     }
 
     /// A column command for the request in `slot`: classify it, schedule its completion (and
     /// that of requests merged into it) and free its queue slots.
     fn column(&mut self, slot: u32, b: usize, t: u64, cmd: Cmd) {
+        self.integrate_occupancy(t);
         self.q.unlist(slot);
         let e = *self.q.get(slot);
         let read = matches!(cmd, Cmd::Rd | Cmd::Rda);
@@ -826,9 +899,11 @@ impl Channel {
                 &mut s.write_row_conflicts,
             )
         };
-        let tag = &mut s.per_tag[e.tag as usize];
-        tag.column_accesses += 1;
-        tag.row_hits += u64::from(!e.act_for);
+        if !self.single_tag {
+            let tag = &mut s.per_tag[e.tag as usize];
+            tag.column_accesses += 1;
+            tag.row_hits += u64::from(!e.act_for);
+        }
         match (e.act_for, e.pre_for) {
             (false, _) => {
                 *hits += 1;
@@ -860,9 +935,11 @@ impl Channel {
                 self.stats.reads_done += 1;
                 self.stats.read_latency_mem.record(lat_mem);
                 self.stats.read_latency_req.record(lat_req);
-                self.stats.per_tag[e.tag as usize]
-                    .read_latency_req
-                    .record(lat_req);
+                if !self.single_tag {
+                    self.stats.per_tag[e.tag as usize]
+                        .read_latency_req
+                        .record(lat_req);
+                }
             }
             MemOp::Write => {
                 self.stats.writes_done += 1;
@@ -890,24 +967,34 @@ impl Channel {
     fn exact_next_event(&self, from: u64) -> u64 {
         debug_assert!(self.dirty_list.is_empty());
         let alts = self.use_alts.then_some(&self.alts);
-        let mut min = self.offers.min_ready(&self.shared);
+        let mut min = self.offers.min_ready(self.engine.calendar());
         if let Some(a) = alts {
-            min = min.min(a.min_ready(&self.shared));
+            min = min.min(a.min_ready(self.engine.calendar()));
         }
         self.next_event_from(from, min)
     }
 
     /// The earliest cycle ≥ `from` at which something can happen, given the earliest ready
     /// time of any offer.
+    #[inline]
     fn next_event_from(&self, from: u64, offers_min: u64) -> u64 {
+        let mut e = offers_min
+            .min(self.q.next_arrival().unwrap_or(u64::MAX))
+            .min(self.refresh.next_due().unwrap_or(u64::MAX));
+        if self.rank_events_possible || self.refresh.any_pending() || self.engine.any_powered_down()
+        {
+            e = e.min(self.rank_events(from));
+        }
+        if e == u64::MAX { e } else { e.max(from) }
+    }
+
+    /// The earliest cycle ≥ `from` of a rank command (refresh preparation, power-down entry
+    /// or exit) or a transfer into a command queue (`u64::MAX` if none): the rare part of
+    /// [`Channel::next_event_from`], kept out of line.
+    #[inline(never)]
+    fn rank_events(&self, from: u64) -> u64 {
         let bpr = self.banks_per_rank;
         let mut e = u64::MAX;
-        if let Some(a) = self.q.next_arrival() {
-            e = e.min(a);
-        }
-        if let Some(d) = self.refresh.next_due() {
-            e = e.min(d);
-        }
         let rank_events = self.refresh.any_pending()
             || self.engine.any_powered_down()
             || self.ctl.power_down != PowerDownKind::Off;
@@ -937,17 +1024,27 @@ impl Channel {
                 e = e.min(at);
             }
         }
-        e = e.min(offers_min);
         if self.ctl.command_queue_depth > 0 && self.q.can_transfer(self.served_op()) {
             e = e.min(from);
         }
-        if e == u64::MAX { e } else { e.max(from) }
+        e
     }
 
     /// Close the books at cycle `end` (exclusive): occupancy, write-drain time and background
     /// states are accounted up to `end`, and stats take the background cycles.
     pub fn finish(&mut self, end: u64) {
         self.integrate_occupancy(end);
+        if self.single_tag {
+            let s = &mut self.stats;
+            s.per_tag[0] = TagStats {
+                reads: s.reads,
+                writes: s.writes,
+                refused: s.reads_refused + s.writes_refused,
+                column_accesses: s.column_reads + s.column_writes,
+                row_hits: s.read_row_hits + s.write_row_hits,
+                read_latency_req: s.read_latency_req.clone(),
+            };
+        }
         if self.write_mode && end > self.drain_since {
             self.stats.write_drain_cycles += end - self.drain_since;
             self.drain_since = end;
@@ -991,19 +1088,12 @@ impl Channel {
     }
 }
 
-/// Stride of a bank group's entries in the calendar of shared ready times (one per kind, so
-/// that the scans over the entries have no gaps).
-const SHARED_STRIDE: usize = BANK_KINDS;
-/// Entries of the calendar: every bank group of a channel (at most 16 ranks × 16 groups,
-/// `config::Organisation`'s limits). A fixed power-of-two size lets the scan index it without
-/// bounds checks.
-const CALENDAR_LEN: usize = 16 * 16 * SHARED_STRIDE;
-type Calendar = [u64; CALENDAR_LEN];
-/// Bank commands (ACT, PRE, RD, WR) as next commands: the kinds banks offer.
-const BANK_KINDS: usize = 4;
+/// Stride of a bank group's entries in the engine's calendar of shared ready times (one per
+/// bank-command kind, so that the scans over the entries have no gaps).
+const SHARED_STRIDE: usize = BK;
 
 /// One offer per bank: the candidate, and apart from it, packed for the scans, its priority,
-/// the bank's own ready time for it and where its shared ready time is in the channel's
+/// the bank's own ready time for it and where its shared ready time is in the engine's
 /// calendar. The banks offering are also filed by calendar entry (bank group and kind): a
 /// bitmask of them and the smallest of their own ready times. An entry's offers are all ready
 /// no earlier than the larger of that minimum and the shared time, so the earliest ready time
