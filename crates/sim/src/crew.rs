@@ -14,6 +14,7 @@
 //! never shows in the results: each job has its own data.
 
 use std::cell::UnsafeCell;
+use std::marker::PhantomData;
 use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -45,10 +46,13 @@ struct Inner {
 // and read by workers only after they see the epoch that published it (Acquire/Release).
 unsafe impl Sync for Inner {}
 
-/// Threads that run one job each per [`Crew::for_each`] (see the module docs).
+/// Threads that run one job each per [`Crew::for_each`] (see the module docs). Neither
+/// `Send` nor `Sync` (the raw-pointer marker): only the thread that made it hands work over,
+/// so a job can never call [`Crew::for_each`] while another hand-over runs.
 pub struct Crew<'s> {
     inner: &'s Inner,
     workers: usize,
+    _one_thread: PhantomData<*const ()>,
 }
 
 impl std::fmt::Debug for Crew<'_> {
@@ -67,8 +71,9 @@ unsafe impl<T: Send> Sync for Jobs<T> {}
 
 impl Crew<'_> {
     /// Run `f` with a crew of `threads - 1` workers besides the calling thread (`threads` ≥ 1;
-    /// with 1, `for_each` runs every job on the calling thread).
-    pub fn scope<R>(threads: usize, f: impl FnOnce(&Crew<'_>) -> R) -> R {
+    /// with 1, `for_each` runs every job on the calling thread). An error if a worker thread
+    /// cannot be started (the ones already started are stopped first).
+    pub fn scope<R>(threads: usize, f: impl FnOnce(&Crew<'_>) -> R) -> std::io::Result<R> {
         let workers = threads.max(1) - 1;
         let inner = Inner {
             epoch: AtomicU64::new(0),
@@ -79,31 +84,41 @@ impl Crew<'_> {
             threads: Mutex::new(Vec::new()),
             panic: Mutex::new(None),
         };
-        thread::scope(|s| {
-            for k in 0..workers {
-                let inner = &inner;
-                let h = thread::Builder::new()
-                    .name(format!("rtsim-crew-{}", k + 1))
-                    .spawn_scoped(s, move || work(inner, k))
-                    .expect("starting a worker thread");
-                inner
-                    .threads
-                    .lock()
-                    .expect("not poisoned")
-                    .push(h.thread().clone());
-            }
-            let crew = Crew {
-                inner: &inner,
-                workers,
-            };
-            let out = catch_unwind(AssertUnwindSafe(|| f(&crew)));
+        let stop = |inner: &Inner| {
             inner.stop.store(true, Ordering::Release);
             inner.epoch.fetch_add(1, Ordering::Release);
             for t in inner.threads.lock().expect("not poisoned").iter() {
                 t.unpark();
             }
+        };
+        thread::scope(|s| {
+            for k in 0..workers {
+                let inner = &inner;
+                let spawned = thread::Builder::new()
+                    .name(format!("rtsim-crew-{}", k + 1))
+                    .spawn_scoped(s, move || work(inner, k));
+                match spawned {
+                    Ok(h) => inner
+                        .threads
+                        .lock()
+                        .expect("not poisoned")
+                        .push(h.thread().clone()),
+                    Err(e) => {
+                        // The scope joins the workers already started: stop them first.
+                        stop(inner);
+                        return Err(e);
+                    }
+                }
+            }
+            let crew = Crew {
+                inner: &inner,
+                workers,
+                _one_thread: PhantomData,
+            };
+            let out = catch_unwind(AssertUnwindSafe(|| f(&crew)));
+            stop(&inner);
             match out {
-                Ok(r) => r,
+                Ok(r) => Ok(r),
                 Err(p) => resume_unwind(p),
             }
         })
@@ -122,11 +137,14 @@ impl Crew<'_> {
             jobs.iter_mut().for_each(&f);
             return;
         }
-        let ptr = Jobs(jobs.as_mut_ptr());
+        // The threads' jobs, and the rest (this thread's after its own): split first, so that
+        // nothing borrows the workers' jobs while they run.
+        let (head, tail) = jobs.split_at_mut(n);
+        let ptr = Jobs(head.as_mut_ptr());
         let task = |k: usize| {
             let ptr = &ptr;
             if k + 1 < n {
-                // SAFETY: worker k alone takes job k + 1 (< n ≤ jobs.len()); the caller waits
+                // SAFETY: worker k alone takes job k + 1 (< n = head.len()); the caller waits
                 // for it below, so the slice outlives the access.
                 f(unsafe { &mut *ptr.0.add(k + 1) });
             }
@@ -150,8 +168,10 @@ impl Crew<'_> {
         }
         // This thread's share: job 0, and any jobs beyond the threads.
         let mine = catch_unwind(AssertUnwindSafe(|| {
-            f(&mut jobs[0]);
-            for j in jobs[n..].iter_mut() {
+            // SAFETY: job 0 is no worker's (they take 1..n), and `head` is not used otherwise
+            // while they run.
+            f(unsafe { &mut *ptr.0 });
+            for j in tail.iter_mut() {
                 f(j);
             }
         }));
@@ -159,10 +179,12 @@ impl Crew<'_> {
         while inner.pending.load(Ordering::Acquire) != 0 {
             relax(&mut spins);
         }
+        // A worker's panic, taken now so that it cannot resurface in a later hand-over.
+        let theirs = inner.panic.lock().expect("not poisoned").take();
         if let Err(p) = mine {
             resume_unwind(p);
         }
-        if let Some(p) = inner.panic.lock().expect("not poisoned").take() {
+        if let Some(p) = theirs {
             resume_unwind(p);
         }
     }
@@ -233,7 +255,8 @@ mod tests {
                 }
                 let want = (0..2000u64).sum::<u64>();
                 assert_eq!(jobs, vec![want; 4], "{threads} threads");
-            });
+            })
+            .unwrap();
         }
     }
 
@@ -246,7 +269,8 @@ mod tests {
                 crew.for_each(&mut jobs, |j| *j += 1);
             }
             assert_eq!(jobs, [3, 3]);
-        });
+        })
+        .unwrap();
     }
 
     #[test]
@@ -258,5 +282,38 @@ mod tests {
             })
         });
         assert!(r.is_err());
+    }
+
+    #[test]
+    fn a_workers_panic_does_not_resurface_later() {
+        Crew::scope(2, |crew| {
+            let mut jobs = vec![0u32, 1];
+            // Both jobs panic: the caller's panic is raised; the worker's must not wait for
+            // the next hand-over.
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                crew.for_each(&mut jobs, |_| panic!("both"))
+            }));
+            assert!(r.is_err());
+            let mut ok = vec![0u32; 2];
+            crew.for_each(&mut ok, |j| *j += 1);
+            assert_eq!(ok, [1, 1]);
+        })
+        .unwrap();
+    }
+
+    /// A crew stays on the thread that made it (a job cannot capture it and hand work over
+    /// while a hand-over runs): checked at compile time, here for the record.
+    #[test]
+    fn a_crew_is_neither_send_nor_sync() {
+        trait NotSync {
+            const YES: bool = false;
+        }
+        impl<T: ?Sized> NotSync for T {}
+        struct Probe<T: ?Sized>(PhantomData<T>);
+        #[allow(dead_code)]
+        impl<T: ?Sized + Sync> Probe<T> {
+            const YES: bool = true;
+        }
+        const { assert!(!<Probe<Crew<'static>>>::YES) };
     }
 }

@@ -252,8 +252,10 @@ impl Core {
                     self.missed &= !(1 << r);
                 }
             }
+            // A store that misses a write-back L1 (`arch.trax.l1.write_policy`) allocates its
+            // line; the TP does not wait for it (nothing is read), so it is posted too.
+            Outcome::Pending if d.class == Class::Store => {}
             Outcome::Pending => {
-                debug_assert_eq!(d.class, Class::Load, "write-around writes are posted");
                 self.pending |= 1 << r;
                 self.from_mem |= 1 << r;
                 self.missed |= 1 << r;
@@ -289,6 +291,10 @@ impl Core {
     #[inline]
     pub(crate) fn complete(&mut self, c: &Completion, miss_done: &mut [u64; 32]) {
         let r = (c.tag & 0xFF) as usize;
+        if r == NO_REG as usize {
+            // A store's line (write-back L1): no register waits for it.
+            return;
+        }
         self.set_ready(r, c.ready);
         self.pending &= !(1 << r);
         miss_done[r] = c.ready;

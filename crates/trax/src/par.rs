@@ -479,8 +479,8 @@ pub fn run(
     let per_tm = chip.cfg.tps_per_tm as usize;
     let icaches = chip.cfg.icaches_per_tm as usize;
     let n = threads.clamp(1, tms);
-    // Even shares of TMs (a smaller share for this thread, which also does the sequential
-    // part of each cycle, measured slower on the reference machine).
+    // Even shares of TMs. (This thread also does each cycle's sequential part, but giving it
+    // fewer TMs measured slower, not faster, on the reference machine.)
     let bounds: Vec<usize> = (0..=n).map(|k| k * tms / n).collect();
     if chip.hier.leaves(0, &bounds)?.is_none() {
         // A topology whose L1s cannot be lent out in runs: one thread.
@@ -520,6 +520,7 @@ pub fn run(
     Crew::scope(n, |crew| {
         run_shards(chip, crew, &bounds, &mut shards, limit, progress)
     })
+    .map_err(|e| ChipError::Threads(e.to_string()))?
 }
 
 /// The cycles of [`run`], `shards` split at `bounds` (TMs), the crew taking a shard each.
@@ -661,6 +662,11 @@ fn run_shards(
         }
         // The sends, in the fast engine's order, and the refusals that depend on them.
         settle(chip, shards, next_event, t)?;
+        for s in shards.iter_mut() {
+            for d in s.done.drain(..) {
+                chip.pixels[d.pixel as usize] = d.result();
+            }
+        }
         // End of the cycle: the first `count` TPs waiting for the counter offer again.
         for _ in 0..chip.cfg.atomic.count {
             let Some(Reverse((_, _, tp))) = waiting.pop() else {
@@ -698,9 +704,6 @@ fn run_shards(
         chip.rays_done += s.rays;
         chip.pixels_done += s.pixels_done;
         chip.live -= s.halted;
-        for d in s.done.drain(..) {
-            chip.pixels[d.pixel as usize] = d.result();
-        }
     }
     chip.completions = done;
     Ok(last)
