@@ -1,4 +1,4 @@
-//! [`Crew`]: a few host threads that take one slice of work each, many thousand times a second.
+//! [`Crew`]: a few host threads that share out a handful of jobs, many thousand times a second.
 //!
 //! A cycle-level engine that splits each simulated cycle between threads hands work over every
 //! few tens of microseconds. A general pool (rayon) puts its idle workers to sleep within
@@ -7,17 +7,21 @@
 //! workers spin between hand-overs instead, for a while ([`SPIN`]), and only then sleep, so a
 //! run of busy cycles pays a few hundred nanoseconds per hand-over.
 //!
+//! Jobs are *claimed*, not assigned: the calling thread and every worker that is awake take
+//! the next unclaimed job until none is left, and the caller waits only for jobs a worker has
+//! already started. A worker the operating system has not scheduled (a busy machine, more
+//! threads than cores, tests side by side) therefore never holds the caller up — the caller
+//! does its jobs — and jobs of uneven size balance themselves.
+//!
 //! Use: [`Crew::scope`] starts `threads - 1` workers for the duration of a closure, which calls
-//! [`Crew::for_each`] on a slice of jobs as often as it likes: job 0 runs on the calling thread,
-//! job `k` on worker `k`, and `for_each` returns when all are done — so the jobs may borrow
-//! anything the caller can (as with `std::thread::scope`). The order in which jobs finish
-//! never shows in the results: each job has its own data.
+//! [`Crew::for_each`] on a slice of jobs as often as it likes; `for_each` returns when every
+//! job is done, so the jobs may borrow anything the caller can (as with `std::thread::scope`).
+//! Which thread runs which job never shows in the results: each job has its own data.
 
-use std::cell::UnsafeCell;
 use std::marker::PhantomData;
 use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU64, AtomicUsize, Ordering};
 use std::thread::{self, Thread};
 use std::time::{Duration, Instant};
 
@@ -25,15 +29,42 @@ use std::time::{Duration, Instant};
 /// sequential part, tens of microseconds, and short enough that an idle crew costs little).
 pub const SPIN: Duration = Duration::from_micros(200);
 
-/// The work of one hand-over: worker `k` calls it with `k`.
-type Task = *const (dyn Fn(usize) + Sync);
+/// Most jobs in one hand-over (the width of the claim word's job fields).
+pub const MAX_JOBS: usize = 0xFFFF;
+
+/// The work of one hand-over, on the caller's stack: `run(k)` does job `k`.
+struct Slot<'f> {
+    run: &'f (dyn Fn(usize) + Sync),
+}
+
+/// The claim word: hand-over number (bits 32..64), its jobs (16..32), the next unclaimed job
+/// (0..16). One atomic word, so a claim succeeds only in the hand-over it was meant for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Claim(u64);
+
+impl Claim {
+    fn new(epoch: u32, jobs: usize, next: usize) -> Claim {
+        Claim((epoch as u64) << 32 | (jobs as u64) << 16 | next as u64)
+    }
+    fn epoch(self) -> u32 {
+        (self.0 >> 32) as u32
+    }
+    fn jobs(self) -> usize {
+        (self.0 >> 16 & 0xFFFF) as usize
+    }
+    fn next(self) -> usize {
+        (self.0 & 0xFFFF) as usize
+    }
+}
 
 struct Inner {
-    /// Bumped (Release) once the task is published; workers wait for a new value.
-    epoch: AtomicU64,
-    task: UnsafeCell<Option<Task>>,
-    /// Workers still running the current task.
-    pending: AtomicUsize,
+    claim: AtomicU64,
+    /// The current hand-over's work: set before its claim word is published, and read only
+    /// by a thread holding a claim of it (so the caller, which waits for every claimed job,
+    /// keeps it alive).
+    slot: AtomicPtr<Slot<'static>>,
+    /// Jobs of the current hand-over finished (or given up after a panic).
+    done: AtomicUsize,
     stop: AtomicBool,
     /// Per worker: it may be parked (set before it parks, cleared when it wakes).
     sleeping: Vec<AtomicBool>,
@@ -41,14 +72,9 @@ struct Inner {
     panic: Mutex<Option<Box<dyn std::any::Any + Send>>>,
 }
 
-// SAFETY: `task` is written only by the crew's owner between hand-overs, while no worker
-// reads it (all have decremented `pending` for the previous task and wait for a new epoch),
-// and read by workers only after they see the epoch that published it (Acquire/Release).
-unsafe impl Sync for Inner {}
-
-/// Threads that run one job each per [`Crew::for_each`] (see the module docs). Neither
-/// `Send` nor `Sync` (the raw-pointer marker): only the thread that made it hands work over,
-/// so a job can never call [`Crew::for_each`] while another hand-over runs.
+/// Threads that share out jobs per [`Crew::for_each`] (see the module docs). Neither `Send`
+/// nor `Sync` (the raw-pointer marker): only the thread that made it hands work over, so a job
+/// can never start a hand-over while another runs.
 pub struct Crew<'s> {
     inner: &'s Inner,
     workers: usize,
@@ -65,8 +91,8 @@ impl std::fmt::Debug for Crew<'_> {
 
 /// A raw pointer the jobs' slice is reached through from the workers.
 struct Jobs<T>(*mut T);
-// SAFETY: each worker touches only its own element of the slice (`T: Send`), and the caller
-// waits for every worker before the slice's borrow ends.
+// SAFETY: a job is reached only by the one thread that claimed it (`T: Send`), and the caller
+// waits for every claimed job before the slice's borrow ends.
 unsafe impl<T: Send> Sync for Jobs<T> {}
 
 impl Crew<'_> {
@@ -76,17 +102,16 @@ impl Crew<'_> {
     pub fn scope<R>(threads: usize, f: impl FnOnce(&Crew<'_>) -> R) -> std::io::Result<R> {
         let workers = threads.max(1) - 1;
         let inner = Inner {
-            epoch: AtomicU64::new(0),
-            task: UnsafeCell::new(None),
-            pending: AtomicUsize::new(0),
+            claim: AtomicU64::new(Claim::new(0, 0, 0).0),
+            slot: AtomicPtr::new(std::ptr::null_mut()),
+            done: AtomicUsize::new(0),
             stop: AtomicBool::new(false),
             sleeping: (0..workers).map(|_| AtomicBool::new(false)).collect(),
             threads: Mutex::new(Vec::new()),
             panic: Mutex::new(None),
         };
         let stop = |inner: &Inner| {
-            inner.stop.store(true, Ordering::Release);
-            inner.epoch.fetch_add(1, Ordering::Release);
+            inner.stop.store(true, Ordering::SeqCst);
             for t in inner.threads.lock().expect("not poisoned").iter() {
                 t.unpark();
             }
@@ -129,54 +154,54 @@ impl Crew<'_> {
         self.workers + 1
     }
 
-    /// Run `f` on every job, job `k` on thread `k` (job 0 on the caller's; more jobs than
-    /// threads: the rest on the caller's too, after job 0), and return when all are done.
+    /// Run `f` on every job (at most [`MAX_JOBS`]), each on whichever thread claims it, and
+    /// return when all are done.
     pub fn for_each<T: Send>(&self, jobs: &mut [T], f: impl Fn(&mut T) + Sync) {
-        let n = jobs.len().min(self.threads());
+        let n = jobs.len();
+        assert!(
+            n <= MAX_JOBS,
+            "at most {MAX_JOBS} jobs a hand-over, not {n}"
+        );
         if n <= 1 || self.workers == 0 {
             jobs.iter_mut().for_each(&f);
             return;
         }
-        // The threads' jobs, and the rest (this thread's after its own): split first, so that
-        // nothing borrows the workers' jobs while they run.
-        let (head, tail) = jobs.split_at_mut(n);
-        let ptr = Jobs(head.as_mut_ptr());
-        let task = |k: usize| {
+        let ptr = Jobs(jobs.as_mut_ptr());
+        let run = |k: usize| {
             let ptr = &ptr;
-            if k + 1 < n {
-                // SAFETY: worker k alone takes job k + 1 (< n = head.len()); the caller waits
-                // for it below, so the slice outlives the access.
-                f(unsafe { &mut *ptr.0.add(k + 1) });
-            }
+            // SAFETY: job k (< n = jobs.len()) is claimed by exactly one thread, and the
+            // caller waits for it below, so the slice outlives the access.
+            f(unsafe { &mut *ptr.0.add(k) });
         };
-        let task: &(dyn Fn(usize) + Sync) = &task;
-        // SAFETY: the lifetime is erased only for the time workers can see the pointer: they
-        // read it after the epoch below, and this function does not return before every
-        // worker has finished with it (`pending` = 0).
-        let task: Task = unsafe { std::mem::transmute::<&(dyn Fn(usize) + Sync), Task>(task) };
+        let slot = Slot { run: &run };
         let inner = self.inner;
-        // SAFETY: no worker reads `task` now (see `Inner`'s Sync).
-        unsafe { *inner.task.get() = Some(task) };
-        inner.pending.store(self.workers, Ordering::Relaxed);
-        // SeqCst with the worker's "sleeping, then the epoch" (a Dekker pair): either it sees
-        // the new epoch or this sees it sleeping.
-        inner.epoch.fetch_add(1, Ordering::SeqCst);
+        // SAFETY of the lifetime: the slot is read only under a claim of this hand-over, and
+        // this function returns only when every claimed job is done.
+        let slot_ptr = &slot as *const Slot<'_> as *mut Slot<'static>;
+        inner.slot.store(slot_ptr, Ordering::Release);
+        inner.done.store(0, Ordering::Relaxed);
+        let epoch = Claim(inner.claim.load(Ordering::Relaxed))
+            .epoch()
+            .wrapping_add(1);
+        // SeqCst with the worker's "sleeping, then the claim word" (a Dekker pair): either it
+        // sees the new hand-over or this sees it sleeping.
+        inner
+            .claim
+            .store(Claim::new(epoch, n, 0).0, Ordering::SeqCst);
         for (k, s) in inner.sleeping.iter().enumerate() {
             if s.swap(false, Ordering::SeqCst) {
                 inner.threads.lock().expect("not poisoned")[k].unpark();
             }
         }
-        // This thread's share: job 0, and any jobs beyond the threads.
-        let mine = catch_unwind(AssertUnwindSafe(|| {
-            // SAFETY: job 0 is no worker's (they take 1..n), and `head` is not used otherwise
-            // while they run.
-            f(unsafe { &mut *ptr.0 });
-            for j in tail.iter_mut() {
-                f(j);
-            }
-        }));
+        // This thread claims jobs too; after a panic in one, it gives up the unclaimed rest
+        // (counted as done) so that the wait below ends.
+        let mine = catch_unwind(AssertUnwindSafe(|| claim_jobs(inner, epoch)));
+        if mine.is_err() {
+            let left = close(inner, epoch);
+            inner.done.fetch_add(left + 1, Ordering::AcqRel);
+        }
         let mut spins = 0u32;
-        while inner.pending.load(Ordering::Acquire) != 0 {
+        while inner.done.load(Ordering::Acquire) < n {
             relax(&mut spins);
         }
         // A worker's panic, taken now so that it cannot resurface in a later hand-over.
@@ -186,6 +211,48 @@ impl Crew<'_> {
         }
         if let Some(p) = theirs {
             resume_unwind(p);
+        }
+    }
+}
+
+/// Claim and run jobs of hand-over `epoch` until none is left (or the hand-over is over).
+fn claim_jobs(inner: &Inner, epoch: u32) {
+    loop {
+        let c = Claim(inner.claim.load(Ordering::Acquire));
+        if c.epoch() != epoch || c.next() >= c.jobs() {
+            return;
+        }
+        let taken = Claim(c.0 + 1);
+        if inner
+            .claim
+            .compare_exchange_weak(c.0, taken.0, Ordering::AcqRel, Ordering::Acquire)
+            .is_err()
+        {
+            continue;
+        }
+        // SAFETY: published before the claim word (Release/AcqRel), and alive while this
+        // claimed job is not done (the caller waits for it).
+        let slot = unsafe { &*inner.slot.load(Ordering::Acquire) };
+        (slot.run)(c.next());
+        inner.done.fetch_add(1, Ordering::AcqRel);
+    }
+}
+
+/// Claim every job of hand-over `epoch` still unclaimed, without running them; returns how
+/// many.
+fn close(inner: &Inner, epoch: u32) -> usize {
+    loop {
+        let c = Claim(inner.claim.load(Ordering::Acquire));
+        if c.epoch() != epoch || c.next() >= c.jobs() {
+            return 0;
+        }
+        let all = Claim::new(epoch, c.jobs(), c.jobs());
+        if inner
+            .claim
+            .compare_exchange(c.0, all.0, Ordering::AcqRel, Ordering::Acquire)
+            .is_ok()
+        {
+            return c.jobs() - c.next();
         }
     }
 }
@@ -203,41 +270,40 @@ fn relax(spins: &mut u32) {
     }
 }
 
-/// Worker `k`'s loop: wait for a new epoch (spinning for [`SPIN`], then parked), run the
-/// task with `k`, report, again; until the crew stops.
+/// Worker `k`'s loop: wait for a new hand-over (spinning for [`SPIN`], then parked), claim
+/// and run its jobs with the others, again; until the crew stops.
 fn work(inner: &Inner, k: usize) {
-    let mut seen = 0;
+    let mut seen = 0u32;
     loop {
         let start = Instant::now();
         let mut spins = 0u32;
-        loop {
-            let e = inner.epoch.load(Ordering::Acquire);
+        let epoch = loop {
+            if inner.stop.load(Ordering::Acquire) {
+                return;
+            }
+            let e = Claim(inner.claim.load(Ordering::Acquire)).epoch();
             if e != seen {
-                seen = e;
-                break;
+                break e;
             }
             if spins % 256 != 255 || start.elapsed() < SPIN {
                 relax(&mut spins);
                 continue;
             }
             inner.sleeping[k].store(true, Ordering::SeqCst);
-            if inner.epoch.load(Ordering::SeqCst) == seen {
+            if Claim(inner.claim.load(Ordering::SeqCst)).epoch() == seen
+                && !inner.stop.load(Ordering::SeqCst)
+            {
                 thread::park();
             }
             inner.sleeping[k].store(false, Ordering::SeqCst);
-        }
-        if inner.stop.load(Ordering::Acquire) {
-            return;
-        }
-        // SAFETY: published before the epoch this worker saw; not rewritten until every
-        // worker, this one included, has decremented `pending`.
-        let task = unsafe { (*inner.task.get()).expect("a task with the epoch") };
-        // SAFETY: the owner keeps the task alive until `pending` reaches 0.
-        let r = catch_unwind(AssertUnwindSafe(|| unsafe { (*task)(k) }));
-        if let Err(p) = r {
+        };
+        seen = epoch;
+        if let Err(p) = catch_unwind(AssertUnwindSafe(|| claim_jobs(inner, epoch))) {
+            // The job that panicked counts as done, and so do the ones nobody will claim now.
+            let left = close(inner, epoch);
             *inner.panic.lock().expect("not poisoned") = Some(p);
+            inner.done.fetch_add(left + 1, Ordering::AcqRel);
         }
-        inner.pending.fetch_sub(1, Ordering::Release);
     }
 }
 
@@ -248,15 +314,17 @@ mod tests {
     #[test]
     fn every_job_runs_once_per_hand_over() {
         for threads in [1, 2, 3, 5] {
-            Crew::scope(threads, |crew| {
-                let mut jobs: Vec<u64> = vec![0; 4];
-                for round in 0..2000u64 {
-                    crew.for_each(&mut jobs, |j| *j += round);
-                }
-                let want = (0..2000u64).sum::<u64>();
-                assert_eq!(jobs, vec![want; 4], "{threads} threads");
-            })
-            .unwrap();
+            for jobs in [1, 2, 4, 9] {
+                Crew::scope(threads, |crew| {
+                    let mut v: Vec<u64> = vec![0; jobs];
+                    for round in 0..2000u64 {
+                        crew.for_each(&mut v, |j| *j += round);
+                    }
+                    let want = (0..2000u64).sum::<u64>();
+                    assert_eq!(v, vec![want; jobs], "{threads} threads, {jobs} jobs");
+                })
+                .unwrap();
+            }
         }
     }
 
@@ -274,22 +342,37 @@ mod tests {
     }
 
     #[test]
-    fn a_panicking_job_panics_the_caller() {
-        let r = std::panic::catch_unwind(|| {
-            Crew::scope(2, |crew| {
-                let mut jobs = vec![0u32, 1];
-                crew.for_each(&mut jobs, |j| assert_eq!(*j, 0, "job {j}"));
-            })
-        });
-        assert!(r.is_err());
+    fn the_caller_does_the_jobs_of_a_worker_that_is_not_there() {
+        // More threads than this machine may have cores, each hand-over tiny: the caller
+        // never waits for a worker that has not claimed anything.
+        Crew::scope(8, |crew| {
+            let mut jobs = vec![0u32; 3];
+            for _ in 0..20_000 {
+                crew.for_each(&mut jobs, |j| *j += 1);
+            }
+            assert_eq!(jobs, [20_000; 3]);
+        })
+        .unwrap();
     }
 
     #[test]
-    fn a_workers_panic_does_not_resurface_later() {
+    fn a_panicking_job_panics_the_caller() {
+        for threads in [2, 3] {
+            let r = std::panic::catch_unwind(|| {
+                Crew::scope(threads, |crew| {
+                    let mut jobs = vec![0u32, 1, 0, 0];
+                    crew.for_each(&mut jobs, |j| assert_eq!(*j, 0, "job {j}"));
+                })
+            });
+            assert!(r.is_err());
+        }
+    }
+
+    #[test]
+    fn a_panic_does_not_resurface_later() {
         Crew::scope(2, |crew| {
-            let mut jobs = vec![0u32, 1];
-            // Both jobs panic: the caller's panic is raised; the worker's must not wait for
-            // the next hand-over.
+            let mut jobs = vec![0u32; 2];
+            // Both jobs panic (whoever runs them): one panic is raised, none is kept.
             let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 crew.for_each(&mut jobs, |_| panic!("both"))
             }));
@@ -301,10 +384,20 @@ mod tests {
         .unwrap();
     }
 
-    /// A crew stays on the thread that made it (a job cannot capture it and hand work over
-    /// while a hand-over runs): checked at compile time, here for the record.
     #[test]
-    fn a_crew_is_neither_send_nor_sync() {
+    fn the_claim_word_keeps_its_fields_apart() {
+        let c = Claim::new(u32::MAX, MAX_JOBS, MAX_JOBS - 1);
+        assert_eq!(
+            (c.epoch(), c.jobs(), c.next()),
+            (u32::MAX, MAX_JOBS, MAX_JOBS - 1)
+        );
+        assert_eq!(Claim(c.0 + 1).next(), MAX_JOBS);
+    }
+
+    /// A crew stays on the thread that made it (a job cannot capture it and start a hand-over
+    /// while one runs): checked at compile time.
+    #[test]
+    fn a_crew_is_not_sync() {
         trait NotSync {
             const YES: bool = false;
         }

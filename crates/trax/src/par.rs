@@ -51,6 +51,68 @@ const RESUMES: usize = 1;
 /// 0.5–1 µs, against a few µs per hand-over; only speed depends on it).
 const PARALLEL_MIN: u32 = 24;
 
+/// Whether cycles run on the crew or on this thread alone, chosen by measuring both: the
+/// choice changes nothing but speed, and on a machine with fewer free cores than threads
+/// (other programs, or other runs) the crew's hand-overs wait for descheduled threads and
+/// cost more than they save. Cycles are counted in windows of [`Pace::WINDOW`]; each window
+/// measures the work it did (TPs and returned misses handled) per second in its mode; the
+/// mode with the better rate runs, and every [`Pace::PROBE`] windows the other one is tried
+/// again.
+#[derive(Debug)]
+struct Pace {
+    crew: bool,
+    start: std::time::Instant,
+    cycles: u32,
+    work: u64,
+    windows: u32,
+    /// Work per second last measured: alone, and with the crew.
+    rate: [f64; 2],
+}
+
+impl Pace {
+    const WINDOW: u32 = 2048;
+    const PROBE: u32 = 16;
+
+    fn new() -> Pace {
+        Pace {
+            crew: true,
+            start: std::time::Instant::now(),
+            cycles: 0,
+            work: 0,
+            windows: 0,
+            rate: [0.0; 2],
+        }
+    }
+
+    /// A cycle of `work` was handled.
+    #[inline]
+    fn count(&mut self, work: u32) {
+        self.work += work as u64;
+        self.cycles += 1;
+        if self.cycles == Self::WINDOW {
+            self.next_window();
+        }
+    }
+
+    #[cold]
+    fn next_window(&mut self) {
+        let secs = self.start.elapsed().as_secs_f64();
+        self.rate[self.crew as usize] = self.work as f64 / secs.max(1e-9);
+        self.windows += 1;
+        // The better mode; the other for one window now and then (and the second window, so
+        // that both have a rate).
+        let best = self.rate[1] >= self.rate[0];
+        self.crew = if self.windows % Self::PROBE == 1 {
+            !best
+        } else {
+            best
+        };
+        self.start = std::time::Instant::now();
+        self.cycles = 0;
+        self.work = 0;
+    }
+}
+
 /// What every thread reads and no thread writes during a cycle.
 struct Shared<'s, 'a> {
     dec: &'s [Dec],
@@ -478,6 +540,8 @@ pub fn run(
     let tms = chip.cfg.tms as usize;
     let per_tm = chip.cfg.tps_per_tm as usize;
     let icaches = chip.cfg.icaches_per_tm as usize;
+    // One shard (run of TMs) per thread: more, for the crew's threads to balance by claiming
+    // them, measured slower on the full chip (`docs/TRAX.md` §7).
     let n = threads.clamp(1, tms);
     // Even shares of TMs. (This thread also does each cycle's sequential part, but giving it
     // fewer TMs measured slower, not faster, on the reference machine.)
@@ -536,6 +600,7 @@ fn run_shards(
     let icaches = chip.cfg.icaches_per_tm as usize;
     let owner = |tp: usize| bounds.partition_point(|&b| b * per_tm <= tp) - 1;
     let mut waiting = BinaryHeap::new();
+    let mut pace = Pace::new();
     let mut done = std::mem::take(&mut chip.completions);
     let mut last = 0;
     let mut ticks = 0u32;
@@ -599,7 +664,7 @@ fn run_shards(
                     round: OFFERS,
                 });
             }
-            if due >= PARALLEL_MIN {
+            if due >= PARALLEL_MIN && pace.crew {
                 crew.for_each(&mut jobs, |job| job.cycle(t));
             } else {
                 for job in &mut jobs {
@@ -679,6 +744,7 @@ fn run_shards(
             c.access_at = t + 1;
             s.wheel.add(t + 1, tp - s.tp0);
         }
+        pace.count(due);
         last = t;
         ticks += 1;
         if ticks & 0x3FFF == 0 {
