@@ -491,18 +491,22 @@ impl<'a> StrataSource<'a> {
     ) -> Result<(), TimedError> {
         let id = self.tps[tp].path.expect("a ray's path");
         let tracer = self.frame.tracer;
-        let mut ts = self.tps[tp].trav.take().expect("a ray in flight");
+        // The state is stepped where it lies (moving it out and back copied the whole
+        // traversal state, the largest variant's stack included, every step).
         let step = {
+            let ts = self.tps[tp].trav.as_mut().expect("a ray in flight");
             let p = self.paths[id as usize].as_mut().expect("a live path");
-            tracer.step(&mut ts, &mut p.counters)
+            tracer.step(ts, &mut p.counters)
         };
         self.step_runs(tp, &step);
-        let TraversalState::BitStack(s) = ts else {
+        let Some(TraversalState::BitStack(s)) = &self.tps[tp].trav else {
             return Err(FlowError::NotBitStack.into());
         };
+        let finished = s.is_done();
         let b = self.tps[tp].treelet;
         let to = match step {
             Step::Done(h) => {
+                self.tps[tp].trav = None;
                 let p = self.paths[id as usize].as_mut().expect("a live path");
                 let result = TraceResult::from_slot_hit(tracer, h);
                 stats
@@ -520,7 +524,7 @@ impl<'a> StrataSource<'a> {
                 let n = &tracer.bvh().nodes[node as usize];
                 (n.count > 0).then(|| (self.treelets.triangle_treelet[n.index as usize], 1))
             }
-            Step::Triangle { slot, .. } if !s.is_done() && self.last_of_leaf[slot as usize] => {
+            Step::Triangle { slot, .. } if !finished && self.last_of_leaf[slot as usize] => {
                 let leaf = self.leaf_of_slot[slot as usize];
                 Some((self.treelets.node_treelet[leaf as usize], 2))
             }
@@ -541,6 +545,7 @@ impl<'a> StrataSource<'a> {
                 .id
                 .kind as u8;
             let rec = s.to_record(id, kind).map_err(FlowError::from)?;
+            self.tps[tp].trav = None;
             self.push_run(tp, Run::new(self.sp.push));
             self.push_run(tp, Run::new(self.sp.pop));
             let w = &mut self.tps[tp];
@@ -548,7 +553,6 @@ impl<'a> StrataSource<'a> {
             w.phase = Phase::Pop;
             return Ok(());
         }
-        self.tps[tp].trav = Some(TraversalState::BitStack(s));
         Ok(())
     }
 
