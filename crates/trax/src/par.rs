@@ -96,7 +96,11 @@ impl Pace {
 
     #[cold]
     fn next_window(&mut self) {
-        let secs = self.start.elapsed().as_secs_f64();
+        self.close_window(self.start.elapsed().as_secs_f64());
+    }
+
+    /// The window ends after `secs` seconds: record its rate and choose the next one's mode.
+    fn close_window(&mut self, secs: f64) {
         self.rate[self.crew as usize] = self.work as f64 / secs.max(1e-9);
         self.windows += 1;
         // The better mode; the other for one window now and then (and the second window, so
@@ -851,4 +855,58 @@ fn settle(
         s.busy.clear();
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Pace;
+
+    /// Windows of `work` each, taking `alone` or `crew` seconds by mode; the modes chosen.
+    fn modes(alone: f64, crew: f64, windows: usize) -> Vec<bool> {
+        let mut p = Pace::new();
+        let mut out = Vec::new();
+        for _ in 0..windows {
+            out.push(p.crew);
+            p.work = 1000;
+            p.close_window(if p.crew { crew } else { alone });
+        }
+        out
+    }
+
+    #[test]
+    fn pace_keeps_the_faster_mode_and_probes_the_other() {
+        for (alone, crew) in [(2.0, 1.0), (1.0, 2.0)] {
+            let m = modes(alone, crew, 4 * Pace::PROBE as usize);
+            let faster = crew < alone;
+            // The first window runs on the crew and the second alone, so both have a rate.
+            assert_eq!(&m[..2], &[true, false]);
+            for (w, &mode) in m.iter().enumerate().skip(2) {
+                // Window w follows w closed windows; every PROBE-th tries the slower mode.
+                let probe = w % Pace::PROBE as usize == 1;
+                assert_eq!(mode, faster != probe, "window {w}, crew faster: {faster}");
+            }
+        }
+    }
+
+    #[test]
+    fn pace_follows_a_change_of_load() {
+        // The crew is faster, then (another program takes a core) slower: from the window
+        // after its first slow one, the single thread runs, the crew only as a probe.
+        let mut p = Pace::new();
+        let mut crew_secs = 1.0;
+        let mut seen = Vec::new();
+        for w in 0..3 * Pace::PROBE as usize {
+            if w == Pace::PROBE as usize / 2 {
+                crew_secs = 4.0;
+            }
+            seen.push(p.crew);
+            p.work = 1000;
+            p.close_window(if p.crew { crew_secs } else { 2.0 });
+        }
+        let half = Pace::PROBE as usize / 2;
+        assert!(seen[2..=half].iter().all(|&c| c));
+        for (w, &c) in seen.iter().enumerate().skip(half + 1) {
+            assert_eq!(c, w % Pace::PROBE as usize == 1, "window {w}");
+        }
+    }
 }
