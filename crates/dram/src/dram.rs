@@ -11,6 +11,7 @@
 //! simulated, so callers may jump to [`MemoryPort::next_event`] or tick cycle by cycle with the
 //! same result.
 
+use crate::completions::CompletionQueue;
 use crate::config::DramConfig;
 use crate::controller::Channel;
 use crate::controller::queue::{Entry, NIL};
@@ -20,7 +21,6 @@ use crate::spec::{DramSpec, Requester};
 use crate::stats::DramStats;
 use rtsim_config::ConfigError;
 use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort, QueueFull};
-use std::collections::VecDeque;
 
 /// Requester cycles beyond this are clamped (2^52: ~52 days at 1 GHz), so that conversions
 /// between clocks (ratios up to 1024 : 1) stay within 64 bits.
@@ -32,11 +32,9 @@ pub struct Dram {
     spec: DramSpec,
     channels: Vec<Channel>,
     /// Completions waiting for the requester to reach their finish cycle, in order of finish
-    /// and, among equal finishes, of collection. Completions are collected nearly in finish
-    /// order (a channel's come after a command plus a fixed latency, and each `advance_to`
-    /// covers a short span), so each is put in place by a short search from the back, and the
-    /// requester takes them from the front.
-    ready: VecDeque<MemCompletion>,
+    /// and, among equal finishes, of collection: the channels add them as they produce them,
+    /// in buckets by finish cycle.
+    ready: CompletionQueue,
     /// Last requester cycle advanced to.
     now_req: Option<u64>,
     /// Memory cycles below this are simulated.
@@ -62,7 +60,7 @@ impl Dram {
         Dram {
             spec,
             channels,
-            ready: VecDeque::with_capacity(cap),
+            ready: CompletionQueue::with_capacity(cap),
             now_req: None,
             mem_done: 0,
             outstanding: 0,
@@ -93,23 +91,6 @@ impl Dram {
     /// The channels (for inspection in tests and reports).
     pub fn channels(&self) -> &[Channel] {
         &self.channels
-    }
-
-    /// Move the completions channel `ch` produced into `ready`, after every completion finishing
-    /// no later: (finish, collection order).
-    #[inline]
-    fn collect(ready: &mut VecDeque<MemCompletion>, ch: &mut Channel) {
-        for c in ch.done.drain(..) {
-            if ready.back().is_none_or(|r| r.finish <= c.finish) {
-                ready.push_back(c);
-            } else {
-                let at = ready
-                    .iter()
-                    .rposition(|r| r.finish <= c.finish)
-                    .map_or(0, |i| i + 1);
-                ready.insert(at, c);
-            }
-        }
     }
 
     /// Stats of each channel, accounted up to the simulated time.
@@ -258,14 +239,11 @@ impl MemoryPort for Dram {
             .req_to_mem
             .ceil(cycle.saturating_add(1))
             .saturating_sub(1);
-        // Only a channel that runs produces completions: each is collected right after it runs,
-        // in channel order as before.
+        // Only a channel that runs produces completions, added to `ready` as they are
+        // produced: channel by channel, as collecting after each channel's run did.
         for ch in &mut self.channels {
             if ch.next_event() <= limit {
-                ch.run_until(limit);
-                if !ch.done.is_empty() {
-                    Self::collect(&mut self.ready, ch);
-                }
+                ch.run_until(limit, &mut self.ready);
             }
         }
         self.mem_done = limit + 1;
@@ -276,7 +254,7 @@ impl MemoryPort for Dram {
         if self.outstanding == 0 {
             return None;
         }
-        let ready = self.ready.front().map_or(u64::MAX, |r| r.finish);
+        let ready = self.ready.first_finish().unwrap_or(u64::MAX);
         let m = self
             .channels
             .iter()
@@ -289,14 +267,7 @@ impl MemoryPort for Dram {
 
     fn drain_completions(&mut self, out: &mut Vec<MemCompletion>) {
         let Some(now) = self.now_req else { return };
-        while let Some(&c) = self.ready.front() {
-            if c.finish > now {
-                break;
-            }
-            out.push(c);
-            self.ready.pop_front();
-            self.outstanding -= 1;
-        }
+        self.outstanding -= self.ready.drain_to(now, out);
     }
 
     fn outstanding(&self) -> usize {

@@ -17,6 +17,7 @@ pub mod row_policy;
 pub mod scheduler;
 
 use crate::checker::Checker;
+use crate::completions::CompletionQueue;
 use crate::config::{
     BankArbitration, ControllerConfig, PowerDownKind, SchedulerKind, WriteDrainKind,
 };
@@ -96,8 +97,6 @@ pub struct Channel {
     mem_to_req: Ratio,
     pub stats: DramStats,
     pub checker: Option<Checker>,
-    /// Completions produced and not yet collected by the owner.
-    pub done: Vec<MemCompletion>,
 }
 
 impl Channel {
@@ -159,7 +158,6 @@ impl Channel {
                 ..DramStats::default()
             },
             checker: spec.config.check.then(|| Checker::new(spec, index)),
-            done: Vec::with_capacity((spec.controller().read_queue * 2) as usize),
         };
         ch.next_event = ch.compute_next_event(0);
         ch
@@ -214,15 +212,15 @@ impl Channel {
         self.next_event
     }
 
-    /// Simulate every cycle up to and including `limit`.
-    pub fn run_until(&mut self, limit: u64) {
+    /// Simulate every cycle up to and including `limit`; completions go to `out`.
+    pub fn run_until(&mut self, limit: u64, out: &mut CompletionQueue) {
         while self.next_event <= limit {
             if self.skip_idle_refreshes(limit) {
                 self.next_event = self.compute_next_event(self.done_below);
                 continue;
             }
             let t = self.next_event;
-            self.step(t);
+            self.step(t, out);
         }
         self.done_below = self.done_below.max(limit + 1);
     }
@@ -267,10 +265,10 @@ impl Channel {
         skipped
     }
 
-    fn step(&mut self, t: u64) {
+    fn step(&mut self, t: u64, out: &mut CompletionQueue) {
         let mut admitted = false;
         while let Some(slot) = self.q.pop_arrived(t) {
-            self.admit(slot, t);
+            self.admit(slot, t, out);
             admitted = true;
         }
         if self.refresh.poll(t) {
@@ -295,7 +293,7 @@ impl Channel {
         let (choice, offers_min) = self.choose(t);
         self.done_below = t + 1;
         if let Some(c) = choice {
-            self.issue(c, t);
+            self.issue(c, t, out);
             // Serving a request (a column command) changes the queue lengths the drain mode
             // depends on; `write_drain = dramsim3` also looks at the command queues, which
             // requests enter between commands, so it is re-evaluated after every command.
@@ -319,7 +317,7 @@ impl Channel {
         }
     }
 
-    fn admit(&mut self, slot: u32, t: u64) {
+    fn admit(&mut self, slot: u32, t: u64, out: &mut CompletionQueue) {
         // The queue lengths integrated over time change only by admitting and serving.
         self.integrate_occupancy(t);
         let e = *self.q.get(slot);
@@ -344,7 +342,7 @@ impl Channel {
             },
             Admit::Forwarded => {
                 self.stats.reads_forwarded += 1;
-                self.complete(&e, t + u64::from(self.ctl.forward_latency));
+                self.complete(&e, t + u64::from(self.ctl.forward_latency), out);
                 self.q.release(slot, false);
             }
         }
@@ -801,7 +799,7 @@ impl Channel {
         None
     }
 
-    fn issue(&mut self, c: Choice, t: u64) {
+    fn issue(&mut self, c: Choice, t: u64, out: &mut CompletionQueue) {
         let b = c.bank;
         let rank = b >> self.rank_shift;
         let mut cmd = c.cmd;
@@ -841,7 +839,7 @@ impl Channel {
                 self.power[rank].close(t);
             }
             Cmd::Rd | Cmd::Wr | Cmd::Rda | Cmd::Wra => {
-                self.column(c.slot, b, t, cmd);
+                self.column(c.slot, b, t, cmd, out);
                 if auto_close {
                     self.stats.auto_precharges += 1;
                     let at = if cmd == Cmd::Rda {
@@ -878,7 +876,7 @@ impl Channel {
 
     /// A column command for the request in `slot`: classify it, schedule its completion (and
     /// that of requests merged into it) and free its queue slots.
-    fn column(&mut self, slot: u32, b: usize, t: u64, cmd: Cmd) {
+    fn column(&mut self, slot: u32, b: usize, t: u64, cmd: Cmd, out: &mut CompletionQueue) {
         self.integrate_occupancy(t);
         self.q.unlist(slot);
         let e = *self.q.get(slot);
@@ -914,11 +912,11 @@ impl Channel {
         }
         s.data_bus_busy_cycles += self.burst;
         let finish = t + if read { self.cl } else { self.cwl } + self.burst;
-        self.complete(&e, finish);
+        self.complete(&e, finish, out);
         let mut m = e.merged;
         while m != NIL {
             let child = *self.q.get(m);
-            self.complete(&child, finish);
+            self.complete(&child, finish, out);
             self.q.release(m, true);
             m = child.next_merged;
         }
@@ -926,7 +924,7 @@ impl Channel {
     }
 
     /// Record the completion of request `e` at memory cycle `finish`.
-    fn complete(&mut self, e: &Entry, finish: u64) {
+    fn complete(&mut self, e: &Entry, finish: u64, out: &mut CompletionQueue) {
         let finish_req = self.mem_to_req.ceil(finish);
         let lat_mem = finish - e.arrival_mem;
         let lat_req = finish_req.saturating_sub(e.arrival_req);
@@ -947,7 +945,7 @@ impl Channel {
                 self.stats.write_latency_req.record(lat_req);
             }
         }
-        self.done.push(MemCompletion {
+        out.push(MemCompletion {
             id: e.id,
             addr: e.req_addr,
             op: e.op,
