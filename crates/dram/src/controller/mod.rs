@@ -29,8 +29,14 @@ use crate::stats::{DramStats, TagStats};
 use power::RankPower;
 use queue::{Admit, Entry, NIL, QueuePolicy, RequestQueues};
 use refresh::Refresh;
+use rtsim_core::stats::Tally;
 use rtsim_core::{MemCompletion, MemOp};
 use scheduler::{BankSched, Candidate};
+
+/// Latencies below this many cycles are tallied by value ([`Tally`]) and added to the
+/// histograms when the books are closed: the histograms' exact range
+/// ([`rtsim_core::stats::EXACT_LIMIT`]); longer ones are recorded directly.
+const LATENCY_TALLY: usize = rtsim_core::stats::EXACT_LIMIT as usize;
 
 /// What to issue this cycle.
 #[derive(Clone, Copy, Debug)]
@@ -96,6 +102,10 @@ pub struct Channel {
     wr: u64,
     mem_to_req: Ratio,
     pub stats: DramStats,
+    /// The latencies of `stats` below [`LATENCY_TALLY`] cycles, counted here and added to the
+    /// histograms when the books are closed ([`Channel::finish`]): read and write, memory and
+    /// requester clock.
+    latency_tallies: [Tally; 4],
     pub checker: Option<Checker>,
 }
 
@@ -157,6 +167,7 @@ impl Channel {
                 per_tag: vec![TagStats::default(); spec.tags as usize],
                 ..DramStats::default()
             },
+            latency_tallies: std::array::from_fn(|_| Tally::new(LATENCY_TALLY)),
             checker: spec.config.check.then(|| Checker::new(spec, index)),
         };
         ch.next_event = ch.compute_next_event(0);
@@ -931,8 +942,13 @@ impl Channel {
         match e.op {
             MemOp::Read => {
                 self.stats.reads_done += 1;
-                self.stats.read_latency_mem.record(lat_mem);
-                self.stats.read_latency_req.record(lat_req);
+                let [mem, req, ..] = &mut self.latency_tallies;
+                if !mem.record(lat_mem) {
+                    self.stats.read_latency_mem.record(lat_mem);
+                }
+                if !req.record(lat_req) {
+                    self.stats.read_latency_req.record(lat_req);
+                }
                 if !self.single_tag {
                     self.stats.per_tag[e.tag as usize]
                         .read_latency_req
@@ -941,8 +957,13 @@ impl Channel {
             }
             MemOp::Write => {
                 self.stats.writes_done += 1;
-                self.stats.write_latency_mem.record(lat_mem);
-                self.stats.write_latency_req.record(lat_req);
+                let [.., mem, req] = &mut self.latency_tallies;
+                if !mem.record(lat_mem) {
+                    self.stats.write_latency_mem.record(lat_mem);
+                }
+                if !req.record(lat_req) {
+                    self.stats.write_latency_req.record(lat_req);
+                }
             }
         }
         out.push(MemCompletion {
@@ -1032,6 +1053,11 @@ impl Channel {
     /// states are accounted up to `end`, and stats take the background cycles.
     pub fn finish(&mut self, end: u64) {
         self.integrate_occupancy(end);
+        let [rm, rr, wm, wr] = &mut self.latency_tallies;
+        rm.flush_into(&mut self.stats.read_latency_mem);
+        rr.flush_into(&mut self.stats.read_latency_req);
+        wm.flush_into(&mut self.stats.write_latency_mem);
+        wr.flush_into(&mut self.stats.write_latency_req);
         if self.single_tag {
             let s = &mut self.stats;
             s.per_tag[0] = TagStats {
