@@ -89,6 +89,11 @@ pub struct Channel {
     occ_since: u64,
     /// Earliest cycle at which something can happen (u64::MAX: nothing scheduled).
     next_event: u64,
+    /// The earliest ready time of every offer and alternative as the last pass over them
+    /// found it, while no offer and no calendar time has changed since; 0 otherwise. A step
+    /// at an earlier cycle (an admission that left every offer as it was) then knows that
+    /// nothing is ready without choosing.
+    offers_min: u64,
     /// All cycles below this have been simulated.
     done_below: u64,
     banks_per_rank: usize,
@@ -153,6 +158,7 @@ impl Channel {
             drain_since: 0,
             occ_since: 0,
             next_event: u64::MAX,
+            offers_min: 0,
             done_below: 0,
             banks_per_rank: o.banks_per_rank as usize,
             rank_shift: o.banks_per_rank.trailing_zeros(),
@@ -301,7 +307,17 @@ impl Channel {
                 self.mark_dirty(b);
             }
         }
-        let (choice, offers_min) = self.choose(t);
+        let (choice, offers_min) = if self.offers_min > t
+            && !self.refresh.any_pending()
+            && !self.engine.any_powered_down()
+            && self.ctl.power_down == PowerDownKind::Off
+        {
+            // No offer has changed since the pass that found none ready before
+            // `offers_min`, and no rank command is due: nothing to choose.
+            (None, self.offers_min)
+        } else {
+            self.choose(t)
+        };
         self.done_below = t + 1;
         if let Some(c) = choice {
             self.issue(c, t, out);
@@ -312,8 +328,10 @@ impl Channel {
                 self.update_mode(t + 1);
             }
             self.settle_candidates();
-            self.next_event = self.exact_next_event(t + 1);
+            self.offers_min = self.offers_ready();
+            self.next_event = self.next_event_from(t + 1, self.offers_min);
         } else {
+            self.offers_min = offers_min;
             self.next_event = self.next_event_from(t + 1, offers_min);
         }
     }
@@ -339,6 +357,7 @@ impl Channel {
                 if !self.append_keeps_offer(b, slot, e.op) {
                     match self.offer_for_only(b, slot, e.op) {
                         Some(o) if !self.dirty[b] => {
+                            self.offers_min = 0;
                             self.offers
                                 .set(b, Some(o), self.ctl.scheduler, &self.engine);
                         }
@@ -493,6 +512,7 @@ impl Channel {
 
     #[inline]
     fn mark_dirty(&mut self, b: usize) {
+        self.offers_min = 0;
         if !self.dirty[b] {
             self.dirty[b] = true;
             self.dirty_list.push(b as u32);
@@ -822,6 +842,8 @@ impl Channel {
             cmd = if cmd == Cmd::Rd { Cmd::Rda } else { Cmd::Wra };
         }
         let act_time = self.engine.act_time(b);
+        // The calendar and the bank's offer change.
+        self.offers_min = 0;
         self.engine.issue(cmd, b, c.row, t);
         if let Some(ch) = &mut self.checker {
             ch.record(cmd, b, c.row, t);
@@ -984,13 +1006,19 @@ impl Channel {
 
     /// [`Channel::compute_next_event`] with every offer settled.
     fn exact_next_event(&self, from: u64) -> u64 {
+        self.next_event_from(from, self.offers_ready())
+    }
+
+    /// The earliest ready time of any offer or alternative (every offer settled).
+    #[inline]
+    fn offers_ready(&self) -> u64 {
         debug_assert!(self.dirty_list.is_empty());
         let alts = self.use_alts.then_some(&self.alts);
         let mut min = self.offers.min_ready(self.engine.calendar());
         if let Some(a) = alts {
             min = min.min(a.min_ready(self.engine.calendar()));
         }
-        self.next_event_from(from, min)
+        min
     }
 
     /// The earliest cycle ≥ `from` at which something can happen, given the earliest ready
