@@ -41,6 +41,8 @@ pub struct Dram {
     mem_done: u64,
     outstanding: usize,
     seq: u64,
+    /// Channels are simulated only when they must be ([`Dram::set_lazy`]).
+    lazy: bool,
 }
 
 impl Dram {
@@ -65,6 +67,7 @@ impl Dram {
             mem_done: 0,
             outstanding: 0,
             seq: 0,
+            lazy: false,
         }
     }
 
@@ -88,13 +91,48 @@ impl Dram {
         self.advance_to(next);
     }
 
-    /// The channels (for inspection in tests and reports).
+    /// The channels (for inspection in tests and reports; with [`Dram::set_lazy`] on, a
+    /// channel may not have been simulated up to the port's time yet).
     pub fn channels(&self) -> &[Channel] {
         &self.channels
     }
 
+    /// Lazy simulation (`true`) for a requester that needs neither the completions in time
+    /// nor the port's next event, only to know whether each request is accepted — the
+    /// standalone driver without a limit on outstanding reads. Then `advance_to` only moves
+    /// the port's clock, and a channel is simulated up to it when a request is offered to it
+    /// (its queue's room and next event are then exactly as eager advancing leaves them),
+    /// one channel over many requests' time at once instead of every channel at every step
+    /// of the requester. Channels share nothing, so each runs the same steps either way; the
+    /// completions of a channel simulated late reach [`MemoryPort::drain_completions`] late
+    /// (still in finish order among themselves). Switching it off simulates every channel up
+    /// to the port's time; do so before asking for [`MemoryPort::next_event`].
+    pub fn set_lazy(&mut self, lazy: bool) {
+        if !lazy {
+            self.catch_up_all();
+        }
+        self.lazy = lazy;
+    }
+
+    /// Simulate every channel up to the port's time (lazy simulation leaves them behind).
+    fn catch_up_all(&mut self) {
+        for c in 0..self.channels.len() {
+            self.catch_up(c);
+        }
+    }
+
+    /// Simulate channel `c` up to the port's time (the last memory cycle `advance_to` reached).
+    #[inline]
+    fn catch_up(&mut self, c: usize) {
+        let ch = &mut self.channels[c];
+        if ch.next_event() < self.mem_done {
+            ch.run_until(self.mem_done - 1, &mut self.ready);
+        }
+    }
+
     /// Stats of each channel, accounted up to the simulated time.
     pub fn channel_stats(&mut self) -> Vec<DramStats> {
+        self.catch_up_all();
         let end = self.mem_done;
         self.channels
             .iter_mut()
@@ -187,6 +225,9 @@ impl MemoryPort for Dram {
         let map = &self.spec.mapper;
         let line = map.line_addr(req.addr);
         let loc = map.decode(line);
+        if self.lazy {
+            self.catch_up(loc.channel as usize);
+        }
         let ch = &mut self.channels[loc.channel as usize];
         if !ch.has_room(req.op) {
             ch.refused(req.op, req.tag);
@@ -240,10 +281,13 @@ impl MemoryPort for Dram {
             .ceil(cycle.saturating_add(1))
             .saturating_sub(1);
         // Only a channel that runs produces completions, added to `ready` as they are
-        // produced: channel by channel, as collecting after each channel's run did.
-        for ch in &mut self.channels {
-            if ch.next_event() <= limit {
-                ch.run_until(limit, &mut self.ready);
+        // produced: channel by channel, as collecting after each channel's run did. Lazily,
+        // a channel runs when a request is offered to it (`catch_up`).
+        if !self.lazy {
+            for ch in &mut self.channels {
+                if ch.next_event() <= limit {
+                    ch.run_until(limit, &mut self.ready);
+                }
             }
         }
         self.mem_done = limit + 1;
@@ -251,6 +295,10 @@ impl MemoryPort for Dram {
     }
 
     fn next_event(&self) -> Option<u64> {
+        debug_assert!(
+            !self.lazy,
+            "set_lazy(false) before asking for the next event"
+        );
         if self.outstanding == 0 {
             return None;
         }
