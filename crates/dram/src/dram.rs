@@ -186,7 +186,8 @@ impl Dram {
     /// The earliest requester cycle at which the channel serving `addr` can change state: a
     /// refused request for that channel cannot be accepted before the cycle after it. Other
     /// channels' events in between are simulated by the same `advance_to` call, so a requester
-    /// blocked on one channel may jump straight there.
+    /// blocked on one channel may jump straight there. With [`Dram::set_lazy`] on, a channel
+    /// not offered a request since the last `advance_to` may report an earlier cycle.
     pub fn next_event_for(&self, addr: u64) -> Option<u64> {
         let loc = self.spec.mapper.decode(self.spec.mapper.line_addr(addr));
         self.channel_event(loc.channel as usize)
