@@ -15,7 +15,7 @@ pub fn ratio(num: f64, den: f64) -> f64 {
 }
 
 /// Values below this are counted exactly.
-const EXACT_LIMIT: u64 = 4096;
+pub const EXACT_LIMIT: u64 = 4096;
 
 /// Distribution of u64 samples: exact below 4096, power-of-two buckets above.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -57,6 +57,33 @@ impl Histogram {
         self.sum += v as u128;
     }
 
+    /// Record `v` `n` times: the same as `n` calls of [`Histogram::record`] (for tallies kept
+    /// elsewhere and added when reporting).
+    pub fn record_n(&mut self, v: u64, n: u64) {
+        if n == 0 {
+            return;
+        }
+        if v < EXACT_LIMIT {
+            let i = v as usize;
+            if self.exact.len() <= i {
+                self.exact.resize(i + 1, 0);
+            }
+            self.exact[i] += n;
+        } else {
+            let k = 63 - v.leading_zeros() as usize;
+            if self.log2_buckets.len() <= k {
+                self.log2_buckets.resize(k + 1, 0);
+            }
+            self.log2_buckets[k] += n;
+        }
+        if self.count == 0 || v < self.min {
+            self.min = v;
+        }
+        self.max = self.max.max(v);
+        self.count += n;
+        self.sum += u128::from(v) * u128::from(n);
+    }
+
     pub fn mean(&self) -> f64 {
         ratio(self.sum as f64, self.count as f64)
     }
@@ -87,6 +114,51 @@ impl Histogram {
             }
         }
         self.max
+    }
+}
+
+/// Samples of a [`Histogram`] below a bound, counted by value while simulating and added to
+/// the histogram when the books are closed ([`Tally::flush_into`]): a hot path records a sample
+/// with one increment instead of updating the histogram's count, sum, minimum and maximum. The
+/// histogram's fields depend only on the multiset of samples, so it ends as if every sample had
+/// been recorded into it directly. Values at or above the bound are for the caller to record
+/// directly ([`Tally::record`] says so).
+#[derive(Clone, Debug)]
+pub struct Tally {
+    counts: Vec<u64>,
+    /// One above the largest value counted since the last flush (0: none).
+    hi: usize,
+}
+
+impl Tally {
+    /// Counts values below `bound`.
+    pub fn new(bound: usize) -> Self {
+        Tally {
+            counts: vec![0; bound],
+            hi: 0,
+        }
+    }
+
+    /// Count `v`; false if `v` is beyond the bound (not counted).
+    #[inline(always)]
+    pub fn record(&mut self, v: u64) -> bool {
+        match self.counts.get_mut(v as usize) {
+            Some(c) => {
+                *c += 1;
+                self.hi = self.hi.max(v as usize + 1);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Add the counted samples to `h` and forget them.
+    pub fn flush_into(&mut self, h: &mut Histogram) {
+        for (v, c) in self.counts[..self.hi].iter_mut().enumerate() {
+            h.record_n(v as u64, *c);
+            *c = 0;
+        }
+        self.hi = 0;
     }
 }
 
@@ -157,6 +229,25 @@ mod tests {
         }
         a += &b;
         assert_eq!(a, all);
+    }
+
+    /// A tally flushed (twice, with samples between) leaves the histogram equal to recording
+    /// every sample directly, values beyond its bound recorded directly.
+    #[test]
+    fn tally_equals_recording_all() {
+        let (mut h, mut all, mut t) = (Histogram::new(), Histogram::new(), Tally::new(64));
+        for (i, v) in [7u64, 0, 63, 64, 9000, 7, 12, 63].into_iter().enumerate() {
+            all.record(v);
+            if !t.record(v) {
+                h.record(v);
+            }
+            if i == 4 {
+                t.flush_into(&mut h);
+            }
+        }
+        t.flush_into(&mut h);
+        t.flush_into(&mut h);
+        assert_eq!(h, all);
     }
 
     #[test]

@@ -11,6 +11,7 @@
 //! simulated, so callers may jump to [`MemoryPort::next_event`] or tick cycle by cycle with the
 //! same result.
 
+use crate::completions::CompletionQueue;
 use crate::config::DramConfig;
 use crate::controller::Channel;
 use crate::controller::queue::{Entry, NIL};
@@ -20,7 +21,6 @@ use crate::spec::{DramSpec, Requester};
 use crate::stats::DramStats;
 use rtsim_config::ConfigError;
 use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort, QueueFull};
-use std::collections::VecDeque;
 
 /// Requester cycles beyond this are clamped (2^52: ~52 days at 1 GHz), so that conversions
 /// between clocks (ratios up to 1024 : 1) stay within 64 bits.
@@ -32,17 +32,17 @@ pub struct Dram {
     spec: DramSpec,
     channels: Vec<Channel>,
     /// Completions waiting for the requester to reach their finish cycle, in order of finish
-    /// and, among equal finishes, of collection. Completions are collected nearly in finish
-    /// order (a channel's come after a command plus a fixed latency, and each `advance_to`
-    /// covers a short span), so each is put in place by a short search from the back, and the
-    /// requester takes them from the front.
-    ready: VecDeque<MemCompletion>,
+    /// and, among equal finishes, of collection: the channels add them as they produce them,
+    /// in buckets by finish cycle.
+    ready: CompletionQueue,
     /// Last requester cycle advanced to.
     now_req: Option<u64>,
     /// Memory cycles below this are simulated.
     mem_done: u64,
     outstanding: usize,
     seq: u64,
+    /// Channels are simulated only when they must be ([`Dram::set_lazy`]).
+    lazy: bool,
 }
 
 impl Dram {
@@ -62,11 +62,12 @@ impl Dram {
         Dram {
             spec,
             channels,
-            ready: VecDeque::with_capacity(cap),
+            ready: CompletionQueue::with_capacity(cap),
             now_req: None,
             mem_done: 0,
             outstanding: 0,
             seq: 0,
+            lazy: false,
         }
     }
 
@@ -90,30 +91,48 @@ impl Dram {
         self.advance_to(next);
     }
 
-    /// The channels (for inspection in tests and reports).
+    /// The channels (for inspection in tests and reports; with [`Dram::set_lazy`] on, a
+    /// channel may not have been simulated up to the port's time yet).
     pub fn channels(&self) -> &[Channel] {
         &self.channels
     }
 
-    /// Move the completions channel `ch` produced into `ready`, after every completion finishing
-    /// no later: (finish, collection order).
+    /// Lazy simulation (`true`) for a requester that needs neither the completions in time
+    /// nor the port's next event, only to know whether each request is accepted — the
+    /// standalone driver without a limit on outstanding reads. Then `advance_to` only moves
+    /// the port's clock, and a channel is simulated up to it when a request is offered to it
+    /// (its queue's room and next event are then exactly as eager advancing leaves them),
+    /// one channel over many requests' time at once instead of every channel at every step
+    /// of the requester. Channels share nothing, so each runs the same steps either way; the
+    /// completions of a channel simulated late reach [`MemoryPort::drain_completions`] late
+    /// (still in finish order among themselves). Switching it off simulates every channel up
+    /// to the port's time; do so before asking for [`MemoryPort::next_event`].
+    pub fn set_lazy(&mut self, lazy: bool) {
+        if !lazy {
+            self.catch_up_all();
+        }
+        self.lazy = lazy;
+    }
+
+    /// Simulate every channel up to the port's time (lazy simulation leaves them behind).
+    fn catch_up_all(&mut self) {
+        for c in 0..self.channels.len() {
+            self.catch_up(c);
+        }
+    }
+
+    /// Simulate channel `c` up to the port's time (the last memory cycle `advance_to` reached).
     #[inline]
-    fn collect(ready: &mut VecDeque<MemCompletion>, ch: &mut Channel) {
-        for c in ch.done.drain(..) {
-            if ready.back().is_none_or(|r| r.finish <= c.finish) {
-                ready.push_back(c);
-            } else {
-                let at = ready
-                    .iter()
-                    .rposition(|r| r.finish <= c.finish)
-                    .map_or(0, |i| i + 1);
-                ready.insert(at, c);
-            }
+    fn catch_up(&mut self, c: usize) {
+        let ch = &mut self.channels[c];
+        if ch.next_event() < self.mem_done {
+            ch.run_until(self.mem_done - 1, &mut self.ready);
         }
     }
 
     /// Stats of each channel, accounted up to the simulated time.
     pub fn channel_stats(&mut self) -> Vec<DramStats> {
+        self.catch_up_all();
         let end = self.mem_done;
         self.channels
             .iter_mut()
@@ -167,7 +186,8 @@ impl Dram {
     /// The earliest requester cycle at which the channel serving `addr` can change state: a
     /// refused request for that channel cannot be accepted before the cycle after it. Other
     /// channels' events in between are simulated by the same `advance_to` call, so a requester
-    /// blocked on one channel may jump straight there.
+    /// blocked on one channel may jump straight there. With [`Dram::set_lazy`] on, a channel
+    /// not offered a request since the last `advance_to` may report an earlier cycle.
     pub fn next_event_for(&self, addr: u64) -> Option<u64> {
         let loc = self.spec.mapper.decode(self.spec.mapper.line_addr(addr));
         self.channel_event(loc.channel as usize)
@@ -206,6 +226,9 @@ impl MemoryPort for Dram {
         let map = &self.spec.mapper;
         let line = map.line_addr(req.addr);
         let loc = map.decode(line);
+        if self.lazy {
+            self.catch_up(loc.channel as usize);
+        }
         let ch = &mut self.channels[loc.channel as usize];
         if !ch.has_room(req.op) {
             ch.refused(req.op, req.tag);
@@ -258,13 +281,13 @@ impl MemoryPort for Dram {
             .req_to_mem
             .ceil(cycle.saturating_add(1))
             .saturating_sub(1);
-        // Only a channel that runs produces completions: each is collected right after it runs,
-        // in channel order as before.
-        for ch in &mut self.channels {
-            if ch.next_event() <= limit {
-                ch.run_until(limit);
-                if !ch.done.is_empty() {
-                    Self::collect(&mut self.ready, ch);
+        // Only a channel that runs produces completions, added to `ready` as they are
+        // produced: channel by channel, as collecting after each channel's run did. Lazily,
+        // a channel runs when a request is offered to it (`catch_up`).
+        if !self.lazy {
+            for ch in &mut self.channels {
+                if ch.next_event() <= limit {
+                    ch.run_until(limit, &mut self.ready);
                 }
             }
         }
@@ -273,10 +296,14 @@ impl MemoryPort for Dram {
     }
 
     fn next_event(&self) -> Option<u64> {
+        debug_assert!(
+            !self.lazy,
+            "set_lazy(false) before asking for the next event"
+        );
         if self.outstanding == 0 {
             return None;
         }
-        let ready = self.ready.front().map_or(u64::MAX, |r| r.finish);
+        let ready = self.ready.first_finish().unwrap_or(u64::MAX);
         let m = self
             .channels
             .iter()
@@ -289,14 +316,7 @@ impl MemoryPort for Dram {
 
     fn drain_completions(&mut self, out: &mut Vec<MemCompletion>) {
         let Some(now) = self.now_req else { return };
-        while let Some(&c) = self.ready.front() {
-            if c.finish > now {
-                break;
-            }
-            out.push(c);
-            self.ready.pop_front();
-            self.outstanding -= 1;
-        }
+        self.outstanding -= self.ready.drain_to(now, out);
     }
 
     fn outstanding(&self) -> usize {

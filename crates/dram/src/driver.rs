@@ -78,6 +78,9 @@ pub fn drive<E>(
     // Requests issued in cycle `last_issue`.
     let mut in_cycle = 0u64;
     let per_cycle = u64::from(opts.max_per_cycle);
+    // Without a read limit nothing here waits for completions or asks for the next event
+    // until the stream has been offered: the channels may be simulated lazily.
+    st.dram.set_lazy(opts.max_outstanding_reads.is_none());
     for (id, rec) in records.into_iter().enumerate() {
         let rec = rec?;
         let wanted = match rec.when {
@@ -142,6 +145,7 @@ pub fn drive<E>(
             on_progress(sum.requests);
         }
     }
+    st.dram.set_lazy(false);
     while let Some(e) = st.dram.next_event() {
         st.advance(e);
     }

@@ -336,11 +336,12 @@ impl Engine {
                 for w in &mut self.windows {
                     let ring = &mut w.rings[rank * w.window..][..w.window];
                     let head = &mut w.heads[rank];
-                    ring[*head % w.window] = t + w.cycles;
+                    // `head` stays below `window`: an index, not a division.
+                    ring[*head] = t + w.cycles;
                     *head = if *head + 1 == w.window { 0 } else { *head + 1 };
                     // The oldest in the ring is the w-th most recent ACT: no ACT in the rank
                     // before it plus the window's cycles (0 before w ACTs: no constraint).
-                    let at = ring[*head % w.window];
+                    let at = ring[*head];
                     for g in rank * gpr..(rank + 1) * gpr {
                         raise(&mut self.calendar[(g * BK + act) % CALENDAR_LEN], at);
                     }

@@ -17,6 +17,8 @@
 //! - [`dram`]: [`Dram`], all channels behind one `MemoryPort`, with the clock-domain crossing
 //!   between the requester and memory clocks. The requester — its clock and its number of
 //!   tags — is given by the chip at construction ([`Requester`]); stats are split per tag.
+//! - [`completions`]: [`completions::CompletionQueue`], completions waiting for the requester
+//!   in buckets by finish cycle.
 //! - [`checker`]: [`Checker`], an independent referee that re-validates every issued command
 //!   (checking mode, `check = true`).
 //! - [`stats`], [`energy`], [`report`]: [`DramStats`] (typed counters, `+=`), energy by
@@ -30,6 +32,7 @@
 //! [`MemoryPort::drain_completions`](rtsim_core::MemoryPort::drain_completions).
 
 pub mod checker;
+pub mod completions;
 pub mod config;
 pub mod controller;
 pub mod dram;

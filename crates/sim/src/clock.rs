@@ -13,6 +13,9 @@ use rtsim_core::Clock;
 pub struct Ratio {
     num: u64,
     den: u64,
+    /// log2(`den`) where `den` is a power of two (a 2 GHz memory under a 1 GHz requester),
+    /// else `u32::MAX`: those divisions are shifts.
+    den_shift: u32,
     from: Clock,
     to: Clock,
 }
@@ -28,9 +31,15 @@ impl Ratio {
     /// Conversion from cycles of `from` to cycles of `to`.
     pub fn new(from: Clock, to: Clock) -> Self {
         let g = gcd(from.hz, to.hz).max(1);
+        let den = from.hz / g;
         Ratio {
             num: to.hz / g,
-            den: from.hz / g,
+            den,
+            den_shift: if den.is_power_of_two() {
+                den.trailing_zeros()
+            } else {
+                u32::MAX
+            },
             from,
             to,
         }
@@ -51,7 +60,9 @@ impl Ratio {
     #[inline]
     pub fn ceil(&self, cycles: u64) -> u64 {
         match cycles.checked_mul(self.num) {
-            Some(n) if self.den == 1 => n,
+            Some(n) if self.den_shift != u32::MAX => {
+                (n >> self.den_shift) + u64::from(n & (self.den - 1) != 0)
+            }
             Some(n) => n.div_ceil(self.den),
             None => self.from.to_ceil(cycles, self.to),
         }
@@ -60,7 +71,7 @@ impl Ratio {
     #[inline]
     pub fn floor(&self, cycles: u64) -> u64 {
         match cycles.checked_mul(self.num) {
-            Some(n) if self.den == 1 => n,
+            Some(n) if self.den_shift != u32::MAX => n >> self.den_shift,
             Some(n) => n / self.den,
             None => self.from.to_floor(cycles, self.to),
         }
@@ -79,6 +90,7 @@ mod tests {
             (733, 1600),
             (1600, 1600),
             (2000, 1000),
+            (2000, 500),
         ] {
             let (x, y) = (Clock::from_mhz(a), Clock::from_mhz(b));
             let r = Ratio::new(x, y);

@@ -17,6 +17,7 @@ pub mod row_policy;
 pub mod scheduler;
 
 use crate::checker::Checker;
+use crate::completions::CompletionQueue;
 use crate::config::{
     BankArbitration, ControllerConfig, PowerDownKind, SchedulerKind, WriteDrainKind,
 };
@@ -28,8 +29,14 @@ use crate::stats::{DramStats, TagStats};
 use power::RankPower;
 use queue::{Admit, Entry, NIL, QueuePolicy, RequestQueues};
 use refresh::Refresh;
+use rtsim_core::stats::Tally;
 use rtsim_core::{MemCompletion, MemOp};
 use scheduler::{BankSched, Candidate};
+
+/// Latencies below this many cycles are tallied by value ([`Tally`]) and added to the
+/// histograms when the books are closed: the histograms' exact range
+/// ([`rtsim_core::stats::EXACT_LIMIT`]); longer ones are recorded directly.
+const LATENCY_TALLY: usize = rtsim_core::stats::EXACT_LIMIT as usize;
 
 /// What to issue this cycle.
 #[derive(Clone, Copy, Debug)]
@@ -82,6 +89,11 @@ pub struct Channel {
     occ_since: u64,
     /// Earliest cycle at which something can happen (u64::MAX: nothing scheduled).
     next_event: u64,
+    /// The earliest ready time of every offer and alternative as the last pass over them
+    /// found it, while no offer and no calendar time has changed since; 0 otherwise. A step
+    /// at an earlier cycle (an admission that left every offer as it was) then knows that
+    /// nothing is ready without choosing.
+    offers_min: u64,
     /// All cycles below this have been simulated.
     done_below: u64,
     banks_per_rank: usize,
@@ -95,9 +107,11 @@ pub struct Channel {
     wr: u64,
     mem_to_req: Ratio,
     pub stats: DramStats,
+    /// The latencies of `stats` below [`LATENCY_TALLY`] cycles, counted here and added to the
+    /// histograms when the books are closed ([`Channel::finish`]): read and write, memory and
+    /// requester clock.
+    latency_tallies: [Tally; 4],
     pub checker: Option<Checker>,
-    /// Completions produced and not yet collected by the owner.
-    pub done: Vec<MemCompletion>,
 }
 
 impl Channel {
@@ -144,6 +158,7 @@ impl Channel {
             drain_since: 0,
             occ_since: 0,
             next_event: u64::MAX,
+            offers_min: 0,
             done_below: 0,
             banks_per_rank: o.banks_per_rank as usize,
             rank_shift: o.banks_per_rank.trailing_zeros(),
@@ -158,8 +173,8 @@ impl Channel {
                 per_tag: vec![TagStats::default(); spec.tags as usize],
                 ..DramStats::default()
             },
+            latency_tallies: std::array::from_fn(|_| Tally::new(LATENCY_TALLY)),
             checker: spec.config.check.then(|| Checker::new(spec, index)),
-            done: Vec::with_capacity((spec.controller().read_queue * 2) as usize),
         };
         ch.next_event = ch.compute_next_event(0);
         ch
@@ -214,15 +229,15 @@ impl Channel {
         self.next_event
     }
 
-    /// Simulate every cycle up to and including `limit`.
-    pub fn run_until(&mut self, limit: u64) {
+    /// Simulate every cycle up to and including `limit`; completions go to `out`.
+    pub fn run_until(&mut self, limit: u64, out: &mut CompletionQueue) {
         while self.next_event <= limit {
             if self.skip_idle_refreshes(limit) {
                 self.next_event = self.compute_next_event(self.done_below);
                 continue;
             }
             let t = self.next_event;
-            self.step(t);
+            self.step(t, out);
         }
         self.done_below = self.done_below.max(limit + 1);
     }
@@ -267,10 +282,10 @@ impl Channel {
         skipped
     }
 
-    fn step(&mut self, t: u64) {
+    fn step(&mut self, t: u64, out: &mut CompletionQueue) {
         let mut admitted = false;
         while let Some(slot) = self.q.pop_arrived(t) {
-            self.admit(slot, t);
+            self.admit(slot, t, out);
             admitted = true;
         }
         if self.refresh.poll(t) {
@@ -292,10 +307,20 @@ impl Channel {
                 self.mark_dirty(b);
             }
         }
-        let (choice, offers_min) = self.choose(t);
+        let (choice, offers_min) = if self.offers_min > t
+            && !self.refresh.any_pending()
+            && !self.engine.any_powered_down()
+            && self.ctl.power_down == PowerDownKind::Off
+        {
+            // No offer has changed since the pass that found none ready before
+            // `offers_min`, and no rank command is due: nothing to choose.
+            (None, self.offers_min)
+        } else {
+            self.choose(t)
+        };
         self.done_below = t + 1;
         if let Some(c) = choice {
-            self.issue(c, t);
+            self.issue(c, t, out);
             // Serving a request (a column command) changes the queue lengths the drain mode
             // depends on; `write_drain = dramsim3` also looks at the command queues, which
             // requests enter between commands, so it is re-evaluated after every command.
@@ -303,8 +328,10 @@ impl Channel {
                 self.update_mode(t + 1);
             }
             self.settle_candidates();
-            self.next_event = self.exact_next_event(t + 1);
+            self.offers_min = self.offers_ready();
+            self.next_event = self.next_event_from(t + 1, self.offers_min);
         } else {
+            self.offers_min = offers_min;
             self.next_event = self.next_event_from(t + 1, offers_min);
         }
     }
@@ -319,7 +346,7 @@ impl Channel {
         }
     }
 
-    fn admit(&mut self, slot: u32, t: u64) {
+    fn admit(&mut self, slot: u32, t: u64, out: &mut CompletionQueue) {
         // The queue lengths integrated over time change only by admitting and serving.
         self.integrate_occupancy(t);
         let e = *self.q.get(slot);
@@ -330,6 +357,7 @@ impl Channel {
                 if !self.append_keeps_offer(b, slot, e.op) {
                     match self.offer_for_only(b, slot, e.op) {
                         Some(o) if !self.dirty[b] => {
+                            self.offers_min = 0;
                             self.offers
                                 .set(b, Some(o), self.ctl.scheduler, &self.engine);
                         }
@@ -344,7 +372,7 @@ impl Channel {
             },
             Admit::Forwarded => {
                 self.stats.reads_forwarded += 1;
-                self.complete(&e, t + u64::from(self.ctl.forward_latency));
+                self.complete(&e, t + u64::from(self.ctl.forward_latency), out);
                 self.q.release(slot, false);
             }
         }
@@ -484,6 +512,7 @@ impl Channel {
 
     #[inline]
     fn mark_dirty(&mut self, b: usize) {
+        self.offers_min = 0;
         if !self.dirty[b] {
             self.dirty[b] = true;
             self.dirty_list.push(b as u32);
@@ -801,7 +830,7 @@ impl Channel {
         None
     }
 
-    fn issue(&mut self, c: Choice, t: u64) {
+    fn issue(&mut self, c: Choice, t: u64, out: &mut CompletionQueue) {
         let b = c.bank;
         let rank = b >> self.rank_shift;
         let mut cmd = c.cmd;
@@ -813,6 +842,8 @@ impl Channel {
             cmd = if cmd == Cmd::Rd { Cmd::Rda } else { Cmd::Wra };
         }
         let act_time = self.engine.act_time(b);
+        // The calendar and the bank's offer change.
+        self.offers_min = 0;
         self.engine.issue(cmd, b, c.row, t);
         if let Some(ch) = &mut self.checker {
             ch.record(cmd, b, c.row, t);
@@ -841,7 +872,7 @@ impl Channel {
                 self.power[rank].close(t);
             }
             Cmd::Rd | Cmd::Wr | Cmd::Rda | Cmd::Wra => {
-                self.column(c.slot, b, t, cmd);
+                self.column(c.slot, b, t, cmd, out);
                 if auto_close {
                     self.stats.auto_precharges += 1;
                     let at = if cmd == Cmd::Rda {
@@ -878,7 +909,7 @@ impl Channel {
 
     /// A column command for the request in `slot`: classify it, schedule its completion (and
     /// that of requests merged into it) and free its queue slots.
-    fn column(&mut self, slot: u32, b: usize, t: u64, cmd: Cmd) {
+    fn column(&mut self, slot: u32, b: usize, t: u64, cmd: Cmd, out: &mut CompletionQueue) {
         self.integrate_occupancy(t);
         self.q.unlist(slot);
         let e = *self.q.get(slot);
@@ -914,11 +945,11 @@ impl Channel {
         }
         s.data_bus_busy_cycles += self.burst;
         let finish = t + if read { self.cl } else { self.cwl } + self.burst;
-        self.complete(&e, finish);
+        self.complete(&e, finish, out);
         let mut m = e.merged;
         while m != NIL {
             let child = *self.q.get(m);
-            self.complete(&child, finish);
+            self.complete(&child, finish, out);
             self.q.release(m, true);
             m = child.next_merged;
         }
@@ -926,15 +957,20 @@ impl Channel {
     }
 
     /// Record the completion of request `e` at memory cycle `finish`.
-    fn complete(&mut self, e: &Entry, finish: u64) {
+    fn complete(&mut self, e: &Entry, finish: u64, out: &mut CompletionQueue) {
         let finish_req = self.mem_to_req.ceil(finish);
         let lat_mem = finish - e.arrival_mem;
         let lat_req = finish_req.saturating_sub(e.arrival_req);
         match e.op {
             MemOp::Read => {
                 self.stats.reads_done += 1;
-                self.stats.read_latency_mem.record(lat_mem);
-                self.stats.read_latency_req.record(lat_req);
+                let [mem, req, ..] = &mut self.latency_tallies;
+                if !mem.record(lat_mem) {
+                    self.stats.read_latency_mem.record(lat_mem);
+                }
+                if !req.record(lat_req) {
+                    self.stats.read_latency_req.record(lat_req);
+                }
                 if !self.single_tag {
                     self.stats.per_tag[e.tag as usize]
                         .read_latency_req
@@ -943,11 +979,16 @@ impl Channel {
             }
             MemOp::Write => {
                 self.stats.writes_done += 1;
-                self.stats.write_latency_mem.record(lat_mem);
-                self.stats.write_latency_req.record(lat_req);
+                let [.., mem, req] = &mut self.latency_tallies;
+                if !mem.record(lat_mem) {
+                    self.stats.write_latency_mem.record(lat_mem);
+                }
+                if !req.record(lat_req) {
+                    self.stats.write_latency_req.record(lat_req);
+                }
             }
         }
-        self.done.push(MemCompletion {
+        out.push(MemCompletion {
             id: e.id,
             addr: e.req_addr,
             op: e.op,
@@ -965,13 +1006,19 @@ impl Channel {
 
     /// [`Channel::compute_next_event`] with every offer settled.
     fn exact_next_event(&self, from: u64) -> u64 {
+        self.next_event_from(from, self.offers_ready())
+    }
+
+    /// The earliest ready time of any offer or alternative (every offer settled).
+    #[inline]
+    fn offers_ready(&self) -> u64 {
         debug_assert!(self.dirty_list.is_empty());
         let alts = self.use_alts.then_some(&self.alts);
         let mut min = self.offers.min_ready(self.engine.calendar());
         if let Some(a) = alts {
             min = min.min(a.min_ready(self.engine.calendar()));
         }
-        self.next_event_from(from, min)
+        min
     }
 
     /// The earliest cycle ≥ `from` at which something can happen, given the earliest ready
@@ -1034,6 +1081,11 @@ impl Channel {
     /// states are accounted up to `end`, and stats take the background cycles.
     pub fn finish(&mut self, end: u64) {
         self.integrate_occupancy(end);
+        let [rm, rr, wm, wr] = &mut self.latency_tallies;
+        rm.flush_into(&mut self.stats.read_latency_mem);
+        rr.flush_into(&mut self.stats.read_latency_req);
+        wm.flush_into(&mut self.stats.write_latency_mem);
+        wr.flush_into(&mut self.stats.write_latency_req);
         if self.single_tag {
             let s = &mut self.stats;
             s.per_tag[0] = TagStats {
