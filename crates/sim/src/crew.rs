@@ -206,11 +206,17 @@ impl Crew<'_> {
         }
         // A worker's panic, taken now so that it cannot resurface in a later hand-over.
         let theirs = inner.panic.lock().expect("not poisoned").take();
-        if let Err(p) = mine {
-            resume_unwind(p);
-        }
-        if let Some(p) = theirs {
-            resume_unwind(p);
+        match (mine, theirs) {
+            (Err(p), theirs) => {
+                // Dropped before unwinding: a payload's drop that panicked while unwinding
+                // would abort.
+                if let Some(q) = theirs {
+                    drop_payload(q);
+                }
+                resume_unwind(p);
+            }
+            (Ok(()), Some(p)) => resume_unwind(p),
+            (Ok(()), None) => {}
         }
     }
 }
@@ -254,6 +260,14 @@ fn close(inner: &Inner, epoch: u32) -> usize {
         {
             return c.jobs() - c.next();
         }
+    }
+}
+
+/// Drop a panic payload that will not be raised, catching a panic of its drop (whose own
+/// payload is leaked rather than dropped in turn).
+fn drop_payload(p: Box<dyn std::any::Any + Send>) {
+    if let Err(q) = catch_unwind(AssertUnwindSafe(move || drop(p))) {
+        std::mem::forget(q);
     }
 }
 
@@ -301,8 +315,22 @@ fn work(inner: &Inner, k: usize) {
         if let Err(p) = catch_unwind(AssertUnwindSafe(|| claim_jobs(inner, epoch))) {
             // The job that panicked counts as done, and so do the ones nobody will claim now.
             let left = close(inner, epoch);
-            *inner.panic.lock().expect("not poisoned") = Some(p);
+            // The hand-over's first panic is kept; a later one is let go only once counted,
+            // as dropping a payload runs foreign code that may panic (here, that would leave
+            // the caller waiting for this job forever).
+            let extra = {
+                let mut kept = inner.panic.lock().expect("not poisoned");
+                if kept.is_none() {
+                    *kept = Some(p);
+                    None
+                } else {
+                    Some(p)
+                }
+            };
             inner.done.fetch_add(left + 1, Ordering::AcqRel);
+            if let Some(p) = extra {
+                drop_payload(p);
+            }
         }
     }
 }
@@ -382,6 +410,53 @@ mod tests {
             assert_eq!(ok, [1, 1]);
         })
         .unwrap();
+    }
+
+    /// Two workers panic in one hand-over, with payloads whose drop panics too: the caller
+    /// gets a panic back instead of waiting forever for the job whose payload was dropped.
+    #[test]
+    fn two_worker_panics_with_payloads_that_panic_on_drop_do_not_hang() {
+        struct Bomb;
+        impl Drop for Bomb {
+            fn drop(&mut self) {
+                panic!("payload dropped");
+            }
+        }
+        let (tx, rx) = std::sync::mpsc::channel();
+        // On a thread of its own, so that a hang fails the test instead of stopping it.
+        std::thread::spawn(move || {
+            let r = std::panic::catch_unwind(|| {
+                Crew::scope(3, |crew| {
+                    let on_workers = AtomicUsize::new(0);
+                    let mut jobs = vec![0u8; 3];
+                    crew.for_each(&mut jobs, |_| {
+                        let worker = thread::current()
+                            .name()
+                            .is_some_and(|n| n.starts_with("rtsim-crew"));
+                        if !worker {
+                            // The caller keeps one job long, so the workers take the others.
+                            thread::sleep(Duration::from_millis(100));
+                            return;
+                        }
+                        on_workers.fetch_add(1, Ordering::SeqCst);
+                        let t = Instant::now();
+                        while on_workers.load(Ordering::SeqCst) < 2
+                            && t.elapsed() < Duration::from_millis(500)
+                        {
+                            thread::yield_now();
+                        }
+                        std::panic::panic_any(Bomb);
+                    });
+                })
+            });
+            let failed = r.is_err();
+            if let Err(p) = r {
+                std::mem::forget(p); // a Bomb
+            }
+            let _ = tx.send(failed);
+        });
+        let got = rx.recv_timeout(Duration::from_secs(10));
+        assert_eq!(got, Ok(true), "the hand-over hung, or did not panic");
     }
 
     #[test]
