@@ -206,11 +206,17 @@ impl Crew<'_> {
         }
         // A worker's panic, taken now so that it cannot resurface in a later hand-over.
         let theirs = inner.panic.lock().expect("not poisoned").take();
-        if let Err(p) = mine {
-            resume_unwind(p);
-        }
-        if let Some(p) = theirs {
-            resume_unwind(p);
+        match (mine, theirs) {
+            (Err(p), theirs) => {
+                // Dropped before unwinding: a payload's drop that panicked while unwinding
+                // would abort.
+                if let Some(q) = theirs {
+                    drop_payload(q);
+                }
+                resume_unwind(p);
+            }
+            (Ok(()), Some(p)) => resume_unwind(p),
+            (Ok(()), None) => {}
         }
     }
 }
@@ -254,6 +260,14 @@ fn close(inner: &Inner, epoch: u32) -> usize {
         {
             return c.jobs() - c.next();
         }
+    }
+}
+
+/// Drop a panic payload that will not be raised, catching a panic of its drop (whose own
+/// payload is leaked rather than dropped in turn).
+fn drop_payload(p: Box<dyn std::any::Any + Send>) {
+    if let Err(q) = catch_unwind(AssertUnwindSafe(move || drop(p))) {
+        std::mem::forget(q);
     }
 }
 
@@ -301,8 +315,22 @@ fn work(inner: &Inner, k: usize) {
         if let Err(p) = catch_unwind(AssertUnwindSafe(|| claim_jobs(inner, epoch))) {
             // The job that panicked counts as done, and so do the ones nobody will claim now.
             let left = close(inner, epoch);
-            *inner.panic.lock().expect("not poisoned") = Some(p);
+            // The hand-over's first panic is kept; a later one is let go only once counted,
+            // as dropping a payload runs foreign code that may panic (here, that would leave
+            // the caller waiting for this job forever).
+            let extra = {
+                let mut kept = inner.panic.lock().expect("not poisoned");
+                if kept.is_none() {
+                    *kept = Some(p);
+                    None
+                } else {
+                    Some(p)
+                }
+            };
             inner.done.fetch_add(left + 1, Ordering::AcqRel);
+            if let Some(p) = extra {
+                drop_payload(p);
+            }
         }
     }
 }
@@ -384,6 +412,53 @@ mod tests {
         .unwrap();
     }
 
+    /// Two workers panic in one hand-over, with payloads whose drop panics too: the caller
+    /// gets a panic back instead of waiting forever for the job whose payload was dropped.
+    #[test]
+    fn two_worker_panics_with_payloads_that_panic_on_drop_do_not_hang() {
+        struct Bomb;
+        impl Drop for Bomb {
+            fn drop(&mut self) {
+                panic!("payload dropped");
+            }
+        }
+        let (tx, rx) = std::sync::mpsc::channel();
+        // On a thread of its own, so that a hang fails the test instead of stopping it.
+        std::thread::spawn(move || {
+            let r = std::panic::catch_unwind(|| {
+                Crew::scope(3, |crew| {
+                    let on_workers = AtomicUsize::new(0);
+                    let mut jobs = vec![0u8; 3];
+                    crew.for_each(&mut jobs, |_| {
+                        let worker = thread::current()
+                            .name()
+                            .is_some_and(|n| n.starts_with("rtsim-crew"));
+                        if !worker {
+                            // The caller keeps one job long, so the workers take the others.
+                            thread::sleep(Duration::from_millis(100));
+                            return;
+                        }
+                        on_workers.fetch_add(1, Ordering::SeqCst);
+                        let t = Instant::now();
+                        while on_workers.load(Ordering::SeqCst) < 2
+                            && t.elapsed() < Duration::from_millis(500)
+                        {
+                            thread::yield_now();
+                        }
+                        std::panic::panic_any(Bomb);
+                    });
+                })
+            });
+            let failed = r.is_err();
+            if let Err(p) = r {
+                std::mem::forget(p); // a Bomb
+            }
+            let _ = tx.send(failed);
+        });
+        let got = rx.recv_timeout(Duration::from_secs(10));
+        assert_eq!(got, Ok(true), "the hand-over hung, or did not panic");
+    }
+
     #[test]
     fn the_claim_word_keeps_its_fields_apart() {
         let c = Claim::new(u32::MAX, MAX_JOBS, MAX_JOBS - 1);
@@ -408,5 +483,175 @@ mod tests {
             const YES: bool = true;
         }
         const { assert!(!<Probe<Crew<'static>>>::YES) };
+    }
+}
+
+#[cfg(test)]
+mod stress {
+    use super::*;
+    use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::SeqCst};
+
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            self.0
+        }
+        fn below(&mut self, n: u64) -> u64 {
+            self.next() % n
+        }
+    }
+
+    #[derive(Clone, Default)]
+    struct Job {
+        runs: u64,
+        work: u32,
+        boom: bool,
+    }
+
+    fn spin(n: u32) -> u64 {
+        let mut x = 1u64;
+        for i in 0..n {
+            x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(i as u64));
+        }
+        x
+    }
+
+    /// One run: `rounds` hand-overs on `threads`, each job checks that its hand-over is the
+    /// current one at start and end (so no job runs before or after its `for_each`).
+    fn run(threads: usize, rounds: u64, seed: u64, panics: bool) -> (u64, u64) {
+        let active = AtomicU64::new(u64::MAX);
+        let ran = AtomicUsize::new(0);
+        let bad = AtomicUsize::new(0);
+        let mut rng = Rng(seed | 1);
+        let mut panicked_rounds = 0u64;
+        let mut slept = 0u64;
+        Crew::scope(threads, |crew| {
+            let mut jobs: Vec<Job> = Vec::new();
+            for round in 0..rounds {
+                let n = match rng.below(100) {
+                    0 => 200 + rng.below(300) as usize,
+                    1..=4 => rng.below(2) as usize,
+                    _ => 2 + rng.below(12) as usize,
+                };
+                jobs.clear();
+                let mut want_panic = false;
+                for _ in 0..n {
+                    let boom = panics && rng.below(200) == 0;
+                    want_panic |= boom;
+                    let work = match rng.below(10) {
+                        0 => rng.below(50_000) as u32,
+                        1..=3 => 0,
+                        _ => rng.below(2000) as u32,
+                    };
+                    jobs.push(Job {
+                        runs: 0,
+                        work,
+                        boom,
+                    });
+                }
+                if rng.below(2000) == 0 {
+                    // Let the workers fall asleep.
+                    std::thread::sleep(SPIN * (1 + rng.below(3) as u32));
+                    slept += 1;
+                }
+                ran.store(0, SeqCst);
+                active.store(round, SeqCst);
+                let r = std::panic::catch_unwind(AssertUnwindSafe(|| {
+                    crew.for_each(&mut jobs, |j| {
+                        if active.load(SeqCst) != round {
+                            bad.fetch_add(1, SeqCst);
+                        }
+                        j.runs += 1;
+                        spin(j.work);
+                        if j.boom {
+                            panic!("boom");
+                        }
+                        if active.load(SeqCst) != round {
+                            bad.fetch_add(1, SeqCst);
+                        }
+                        ran.fetch_add(1, SeqCst);
+                    })
+                }));
+                active.store(u64::MAX, SeqCst);
+                assert_eq!(
+                    r.is_err(),
+                    want_panic,
+                    "round {round}: panic propagated iff one happened"
+                );
+                if r.is_err() {
+                    panicked_rounds += 1;
+                    assert!(
+                        jobs.iter().all(|j| j.runs <= 1),
+                        "round {round}: a job ran twice"
+                    );
+                    assert_eq!(
+                        ran.load(SeqCst),
+                        jobs.iter().filter(|j| j.runs == 1 && !j.boom).count()
+                    );
+                } else {
+                    assert!(
+                        jobs.iter().all(|j| j.runs == 1),
+                        "round {round}: {:?}",
+                        jobs.iter().map(|j| j.runs).collect::<Vec<_>>()
+                    );
+                    assert_eq!(ran.load(SeqCst), n);
+                }
+                // Late touches show up here too: a job touched after return would bump runs.
+                std::hint::black_box(&jobs);
+            }
+        })
+        .unwrap();
+        assert_eq!(bad.load(SeqCst), 0, "a job ran outside its hand-over");
+        (panicked_rounds, slept)
+    }
+
+    #[test]
+    #[ignore = "stress: cargo test --release -p rtsim-sim stress -- --ignored (CREW_ROUNDS=...)"]
+    fn stress_no_panics() {
+        let rounds: u64 = std::env::var("CREW_ROUNDS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(20_000);
+        for (i, threads) in [2usize, 3, 4, 8].into_iter().enumerate() {
+            let r = run(threads, rounds, 0x9E3779B97F4A7C15 ^ i as u64, false);
+            eprintln!("threads {threads}: {rounds} rounds, slept {}", r.1);
+        }
+    }
+
+    #[test]
+    #[ignore = "stress: cargo test --release -p rtsim-sim stress -- --ignored (CREW_ROUNDS=...)"]
+    fn stress_panics() {
+        let prev = std::panic::take_hook();
+        std::panic::set_hook(Box::new(|_| {}));
+        let rounds: u64 = std::env::var("CREW_ROUNDS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(20_000);
+        for (i, threads) in [2usize, 3, 5].into_iter().enumerate() {
+            let r = run(threads, rounds, 0xD1B54A32D192ED03 ^ i as u64, true);
+            eprintln!(
+                "threads {threads}: {rounds} rounds, {} panicked, slept {}",
+                r.0, r.1
+            );
+        }
+        std::panic::set_hook(prev);
+    }
+
+    /// Workers asleep, then woken many times in a row (the park/unpark path only).
+    #[test]
+    #[ignore = "stress: cargo test --release -p rtsim-sim stress -- --ignored (CREW_ROUNDS=...)"]
+    fn stress_sleep_wake() {
+        Crew::scope(3, |crew| {
+            let mut v = vec![0u32; 4];
+            for i in 0..300u32 {
+                std::thread::sleep(SPIN + Duration::from_micros(20 * (i % 7) as u64));
+                crew.for_each(&mut v, |j| *j += 1);
+            }
+            assert_eq!(v, [300; 4]);
+        })
+        .unwrap();
     }
 }
