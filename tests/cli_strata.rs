@@ -99,12 +99,24 @@ fn bench_sim_runs_strata_and_bad_settings_name_their_key() {
             "cornell",
             "--cycle-limit",
             "5000",
+            "--against-baseline",
         ])
         .args(SMALL));
     assert!(
         stdout.contains("stream memory") && stdout.contains("instructions/s"),
         "{stdout}"
     );
+    // Both chips' host time per simulated instruction, and their ratio.
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("per instruction"))
+        .unwrap_or_else(|| panic!("no per-instruction line: {stdout}"));
+    assert!(
+        line.contains("STRaTA") && line.contains("baseline") && line.ends_with("the baseline's"),
+        "{line}"
+    );
+    let e = fails(rtsim().args(["bench-sim", "--against-baseline", "--cycle-limit", "10"]));
+    assert!(e.contains("--arch strata"), "{e}");
     let dir = tempfile::tempdir().unwrap();
     // The error of `simulate --arch strata --set SET` names each of `keys`.
     let names = |set: &str, keys: &[&str]| {

@@ -33,6 +33,11 @@ pub struct BenchSimArgs {
     /// Run the whole frame (no cycle limit unless --cycle-limit is given).
     #[arg(long)]
     pub full: bool,
+    /// With `--arch strata`: also run the TRaX baseline with the same flags, both on one host
+    /// thread, and print each chip's host time per simulated instruction (issue 10 §6 asks
+    /// STRaTA for parity with the baseline).
+    #[arg(long)]
+    pub against_baseline: bool,
 }
 
 pub fn run(mut args: BenchSimArgs) -> Result<()> {
@@ -43,10 +48,21 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
             "bench-sim measures the TRaX chip: --arch must be trax-baseline or strata, not {arch}"
         );
     }
+    if args.against_baseline && arch != "strata" {
+        anyhow::bail!(
+            "--against-baseline compares STRaTA with the baseline: it needs --arch strata"
+        );
+    }
     a.scene.scene.get_or_insert_with(|| "sibenik".into());
     if !args.full {
         a.frame.cycle_limit.get_or_insert(DEFAULT_CYCLES);
     }
+    let baseline_args = args.against_baseline.then(|| {
+        let mut b = a.clone();
+        b.arch = Some("trax-baseline".into());
+        b.scene.threads = Some(1);
+        b
+    });
     // The benchmark writes nothing (an `--out` is accepted and ignored).
     let flags = simulate::flags(a)?;
     let load_before = load_average();
@@ -151,7 +167,31 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
             thousands(f.reconfigurations)
         );
     }
+    if let Some(b) = baseline_args {
+        let flags = simulate::flags(&b)?;
+        let sb = session::open(&b.scene, &flags, false)?;
+        let base = simulate::trax::frame(&sb)?;
+        let (ns, how) = per_instruction(&ran);
+        let (base_ns, _) = per_instruction(&base);
+        println!(
+            "per instruction  STRaTA {ns:.1} ns, baseline {base_ns:.1} ns ({how}, one host thread \
+             each; baseline: {} instructions in {} cycles): STRaTA {:.2}× the baseline's",
+            thousands(base.out.report.instructions.total),
+            thousands(base.out.report.cycles),
+            ns / base_ns
+        );
+    }
     Ok(())
+}
+
+/// Host nanoseconds per simulated instruction of a run: per CPU second where the platform
+/// reports it (both runs measured alike), else per wall second.
+fn per_instruction(r: &simulate::trax::Ran) -> (f64, &'static str) {
+    let n = r.out.report.instructions.total.max(1) as f64;
+    match r.cpu_seconds {
+        Some(cpu) => (cpu * 1e9 / n, "CPU"),
+        None => (r.seconds * 1e9 / n, "wall"),
+    }
 }
 
 /// The process's peak resident set in KiB (`VmHWM` in `/proc/self/status`; Linux only).
