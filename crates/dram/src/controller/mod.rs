@@ -1265,12 +1265,15 @@ struct Offers {
     entries: Vec<CalendarOffers>,
     banks_per_group: usize,
     /// `bank_arbitration = round-robin`: every offer has the same priority, and among equals
-    /// the first bank from `turn` on (cyclically) wins; `turn` is 0 otherwise, so the lowest
-    /// bank wins.
+    /// the first bank from `turn` on (cyclically) wins; `turn` is 0 otherwise (where no two
+    /// offers have equal priority).
     round_robin: bool,
     turn: usize,
     /// Banks − 1 (a power of two minus one).
     bank_mask: usize,
+    /// `bank_mask` under round robin, else 0: the part of a bank's position from `turn` in
+    /// [`Offers::pick`]'s key.
+    rr_mask: usize,
 }
 
 /// The offers of one calendar entry (a bank group and a kind).
@@ -1325,6 +1328,11 @@ impl Offers {
             round_robin: arbitration == BankArbitration::RoundRobin,
             turn: 0,
             bank_mask: banks - 1,
+            rr_mask: if arbitration == BankArbitration::RoundRobin {
+                banks - 1
+            } else {
+                0
+            },
             cand: vec![Candidate::NONE; banks],
             slots: vec![OfferSlot::NONE; banks],
             entries: vec![
@@ -1394,73 +1402,116 @@ impl Offers {
         self.slots[b].local != u64::MAX && self.cand[b].cmd == cmd
     }
 
-    /// The earliest ready time of any offer (`u64::MAX` if none): one look per calendar entry.
+    /// The earliest ready time of any offer (`u64::MAX` if none): one look per calendar entry
+    /// (an entry without members has `min_local = u64::MAX`).
     #[inline]
     fn min_ready(&self, shared: &Calendar) -> u64 {
         let mut min = u64::MAX;
         for (i, e) in self.entries.iter().enumerate() {
-            if e.members != 0 {
-                min = min.min(e.min_local.max(shared[i % CALENDAR_LEN]));
-            }
+            min = min.min(e.min_local.max(shared[i % CALENDAR_LEN]));
         }
         min
     }
 
-    /// The ready offer of highest priority at `t` among the entries' members (the lowest bank
-    /// among equals), offers whose bank's `primary` offer is ready excepted when given (an
+    /// The ready offer of highest priority at `t` among the entries' members (under round
+    /// robin the first from `turn` on), offers whose bank's `primary` offer is ready excepted when given (an
     /// alternative yields to its bank's offer); `best` is updated in place, and the earliest
     /// ready time of all is returned.
+    ///
+    /// Which offers are ready depends on the data, so the pass avoids branching on it: per
+    /// bank group, the members of its entries whose time has passed form one mask (a bank
+    /// offers one kind, so the entries' members are disjoint), and a member replaces `best`
+    /// by a selection on its key. (priority, position from `turn`) orders the banks totally,
+    /// so the order of the visits does not change the pick.
     #[inline]
-    fn pick(
-        &self,
-        primary: Option<&Offers>,
-        shared: &Calendar,
-        t: u64,
-        best: &mut (u64, usize, bool),
-    ) -> u64 {
+    fn pick(&self, primary: Option<&Offers>, shared: &Calendar, t: u64, best: &mut Best) -> u64 {
         let mut min = u64::MAX;
-        for (i, e) in self.entries.iter().enumerate() {
-            if e.members == 0 {
-                continue;
+        // In registers for the pass.
+        let Best {
+            key: mut best_key,
+            bank: mut best_bank,
+            alt: mut best_alt,
+        } = *best;
+        for (g, group) in self.entries.chunks_exact(SHARED_STRIDE).enumerate() {
+            let mut ready = 0u64;
+            for (k, e) in group.iter().enumerate() {
+                // No members: `min_local` is `u64::MAX`, never ready.
+                let r = e
+                    .min_local
+                    .max(shared[(g * SHARED_STRIDE + k) % CALENDAR_LEN]);
+                min = min.min(r);
+                // The shared time has passed: the members whose own time has are ready.
+                ready |= e.members & mask(r <= t);
             }
-            let r = e.min_local.max(shared[i % CALENDAR_LEN]);
-            min = min.min(r);
-            if r > t {
-                continue;
-            }
-            // The shared time has passed: the members whose own time has are ready.
-            let base = i / SHARED_STRIDE * self.banks_per_group;
-            let mut bits = e.members;
-            while bits != 0 {
-                let b = base + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
+            let base = g * self.banks_per_group;
+            while ready != 0 {
+                let b = base + ready.trailing_zeros() as usize;
+                ready &= ready - 1;
                 let o = &self.slots[b];
-                if o.local > t || primary.is_some_and(|p| p.slots[b].ready(shared) <= t) {
-                    continue;
-                }
-                // Among equals the first bank from `turn` on (the lowest bank when `turn` is 0).
-                let after = |x: usize| x.wrapping_sub(self.turn) & self.bank_mask;
-                if o.priority < best.0 || (o.priority == best.0 && after(b) < after(best.1)) {
-                    *best = (o.priority, b, primary.is_some());
-                }
+                // Round robin: every priority is 0, and the first bank from `turn` on wins.
+                // Otherwise the priorities of the offers and alternatives are distinct (each
+                // serves its own request, and a request's age is its own), so they alone are
+                // the key.
+                let key = o.priority | (b.wrapping_sub(self.turn) & self.rr_mask) as u64;
+                let ready = (o.local <= t) & primary.is_none_or(|p| p.slots[b].ready(shared) > t);
+                debug_assert!(!ready || key != best_key, "two offers of equal priority");
+                let take = ready & (key < best_key);
+                let m = mask(take);
+                best_key = (key & m) | (best_key & !m);
+                best_bank = (b & m as usize) | (best_bank & !m as usize);
+                best_alt = (take & primary.is_some()) | (!take & best_alt);
             }
         }
+        *best = Best {
+            key: best_key,
+            bank: best_bank,
+            alt: best_alt,
+        };
         min
     }
 
-    /// The ready offer of highest priority at `t` (the lowest bank among equals), where an
+    /// The ready offer of highest priority at `t` (under round robin the first bank from
+    /// `turn` on), where an
     /// offer that cannot issue yields to its bank's alternative (`alts`), if that can; and the
     /// earliest ready time of all.
     #[inline]
     fn scan(&self, alts: Option<&Offers>, shared: &Calendar, t: u64) -> Pick {
-        let mut best = (u64::MAX, usize::MAX, false);
+        let mut best = Best {
+            key: u64::MAX,
+            bank: usize::MAX,
+            alt: false,
+        };
         let mut min = self.pick(None, shared, t, &mut best);
         if let Some(a) = alts {
             min = min.min(a.pick(Some(self), shared, t, &mut best));
         }
         Pick {
-            best: (best.1 != usize::MAX).then_some((best.1, best.2)),
+            best: (best.bank != usize::MAX).then_some((best.bank, best.alt)),
             min_ready: min,
         }
     }
+}
+
+/// The best offer so far in [`Offers::pick`]: its key (priority, or under round robin the
+/// position from the turn; smaller wins), bank and whether it is an alternative.
+#[derive(Clone, Copy, Debug)]
+struct Best {
+    key: u64,
+    bank: usize,
+    alt: bool,
+}
+
+/// All ones if `c`, else 0: for selections on data the branch predictor cannot learn. The
+/// mask is hidden from the optimiser (an empty `asm!` that passes it through a register), which
+/// would otherwise turn the selection back into a branch.
+#[inline(always)]
+fn mask(c: bool) -> u64 {
+    #[allow(unused_mut)]
+    let mut m = 0u64.wrapping_sub(u64::from(c));
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: the template is empty: `m` is left as it is, no memory, stack or flags touched.
+    unsafe {
+        std::arch::asm!("/* {0} */", inout(reg) m, options(pure, nomem, nostack, preserves_flags));
+    }
+    m
 }
