@@ -295,9 +295,89 @@ impl Engine {
     }
 
     /// Issue `cmd` at cycle `t` at flat bank `b` (any bank of the rank for rank commands).
-    /// The caller has checked [`Engine::can_issue`].
+    /// The caller has checked [`Engine::can_issue`]. The controller calls the per-kind
+    /// methods below directly ([`Engine::issue_act`], [`Engine::issue_pre`],
+    /// [`Engine::issue_column`]): each inlined where the kind is known, its delay passes and
+    /// state change take no dispatch on the command.
     pub fn issue(&mut self, cmd: Cmd, b: usize, row: u32, t: u64) {
+        match cmd {
+            Cmd::Act => self.issue_act(b, row, t),
+            Cmd::Pre => self.issue_pre(b, t),
+            Cmd::Rd | Cmd::Wr | Cmd::Rda | Cmd::Wra => self.issue_column(cmd, b, row, t),
+            Cmd::Ref | Cmd::Pde | Cmd::Pdx => self.issue_rank_command(cmd, b, t),
+        }
+    }
+
+    /// ACT at flat bank `b`, opening `row`: [`Engine::issue`] for a known kind.
+    #[inline(always)]
+    pub fn issue_act(&mut self, b: usize, row: u32, t: u64) {
+        debug_assert!(
+            self.can_issue(Cmd::Act, b, row, t),
+            "ACT at {t} on bank {b}"
+        );
+        let rank = self.raise_delays(Cmd::Act, b, t);
+        let gpr = self.groups_per_rank;
+        self.open_row[b] = row;
+        self.act_time[b] = t;
+        self.open_in_rank[rank] += 1;
+        let act = Cmd::Act.kind();
+        for w in &mut self.windows {
+            let ring = &mut w.rings[rank * w.window..][..w.window];
+            let head = &mut w.heads[rank];
+            // `head` stays below `window`: an index, not a division.
+            ring[*head] = t + w.cycles;
+            *head = if *head + 1 == w.window { 0 } else { *head + 1 };
+            // The oldest in the ring is the w-th most recent ACT: no ACT in the rank before it
+            // plus the window's cycles (0 before w ACTs: no constraint).
+            let at = ring[*head];
+            for g in rank * gpr..(rank + 1) * gpr {
+                raise(&mut self.calendar[(g * BK + act) % CALENDAR_LEN], at);
+            }
+        }
+    }
+
+    /// PRE at flat bank `b`: [`Engine::issue`] for a known kind.
+    #[inline(always)]
+    pub fn issue_pre(&mut self, b: usize, t: u64) {
+        debug_assert!(self.can_issue(Cmd::Pre, b, 0, t), "PRE at {t} on bank {b}");
+        let rank = self.raise_delays(Cmd::Pre, b, t);
+        self.open_row[b] = CLOSED;
+        self.open_in_rank[rank] -= 1;
+    }
+
+    /// A column command (RD, WR, RDA, WRA) at flat bank `b`: [`Engine::issue`] for a known
+    /// kind; with auto-precharge the row closes.
+    #[inline(always)]
+    pub fn issue_column(&mut self, cmd: Cmd, b: usize, row: u32, t: u64) {
         debug_assert!(self.can_issue(cmd, b, row, t), "{cmd:?} at {t} on bank {b}");
+        let rank = self.raise_delays(cmd, b, t);
+        if matches!(cmd, Cmd::Rda | Cmd::Wra) {
+            self.open_row[b] = CLOSED;
+            self.open_in_rank[rank] -= 1;
+        }
+    }
+
+    /// A rank command (REF, PDE, PDX) at the rank of flat bank `b`.
+    fn issue_rank_command(&mut self, cmd: Cmd, b: usize, t: u64) {
+        debug_assert!(self.can_issue(cmd, b, 0, t), "{cmd:?} at {t} on bank {b}");
+        let rank = self.raise_delays(cmd, b, t);
+        match cmd {
+            Cmd::Pde => {
+                self.powered_down[rank] = true;
+                self.powered_down_count += 1;
+            }
+            Cmd::Pdx => {
+                self.powered_down[rank] = false;
+                self.powered_down_count -= 1;
+            }
+            _ => {}
+        }
+    }
+
+    /// The delay passes of `cmd` issued at `t` at flat bank `b`: raise the times of every
+    /// scope its rules name. Returns the bank's rank.
+    #[inline(always)]
+    fn raise_delays(&mut self, cmd: Cmd, b: usize, t: u64) -> usize {
         self.last_issue = Some(t);
         let rank = self.rank_of[b] as usize;
         let group = self.group_of[b] as usize;
@@ -327,40 +407,7 @@ impl Engine {
                 raise_all(&mut self.rank_next[r], &d.other_ranks, t);
             }
         }
-        match cmd {
-            Cmd::Act => {
-                self.open_row[b] = row;
-                self.act_time[b] = t;
-                self.open_in_rank[rank] += 1;
-                let act = Cmd::Act.kind();
-                for w in &mut self.windows {
-                    let ring = &mut w.rings[rank * w.window..][..w.window];
-                    let head = &mut w.heads[rank];
-                    // `head` stays below `window`: an index, not a division.
-                    ring[*head] = t + w.cycles;
-                    *head = if *head + 1 == w.window { 0 } else { *head + 1 };
-                    // The oldest in the ring is the w-th most recent ACT: no ACT in the rank
-                    // before it plus the window's cycles (0 before w ACTs: no constraint).
-                    let at = ring[*head];
-                    for g in rank * gpr..(rank + 1) * gpr {
-                        raise(&mut self.calendar[(g * BK + act) % CALENDAR_LEN], at);
-                    }
-                }
-            }
-            Cmd::Pre | Cmd::Rda | Cmd::Wra => {
-                self.open_row[b] = CLOSED;
-                self.open_in_rank[rank] -= 1;
-            }
-            Cmd::Pde => {
-                self.powered_down[rank] = true;
-                self.powered_down_count += 1;
-            }
-            Cmd::Pdx => {
-                self.powered_down[rank] = false;
-                self.powered_down_count -= 1;
-            }
-            Cmd::Rd | Cmd::Wr | Cmd::Ref => {}
-        }
+        rank
     }
 
     /// The open row of flat bank `b`, or [`CLOSED`].

@@ -442,9 +442,9 @@ impl Channel {
         Some(Candidate::for_request(&self.q, cmd, slot, hit))
     }
 
-    /// The offer of bank `b` right after `cmd` was issued there (for the request in `slot`),
-    /// where it follows from the command and the first request of the served list — its oldest,
-    /// where the scheduler's ACT and PRE come from (`direct_offers`, rank not blocked):
+    /// The offer of bank `b` right after a command was issued there, where it follows from
+    /// the command and the first request of the served list — its oldest, where the
+    /// scheduler's ACT and PRE come from (`direct_offers`, rank not blocked):
     /// - after a PRE for the first request, the ACT for it (the bank's `pre_target`);
     /// - after an ACT for the first request, its column command (it hits the row just opened);
     /// - after a column command that leaves the row open, the column command of the first
@@ -457,57 +457,130 @@ impl Channel {
     ///   `pre_target` was cleared by the ACT);
     /// - with the served list empty, no offer.
     ///
-    /// `None`: recompute from the lists.
-    #[inline]
-    fn offer_after(&self, cmd: Cmd, b: usize, slot: u32) -> Option<Option<Candidate>> {
+    /// `None`: recompute from the lists. Each kind has its own method (`offer_after_pre`,
+    /// `_act`, `_column`, `_rank`), called where the controller already knows the kind.
+    /// This part is common to all: `Ok` the first request of the served list, or `Err` the
+    /// answer (not direct, or the list is empty).
+    #[inline(always)]
+    fn offer_after_first(&self, b: usize) -> Result<u32, Option<Option<Candidate>>> {
         if !self.direct_offers || self.rank_blocked(b >> self.rank_shift) {
-            return None;
+            return Err(None);
         }
-        let (served, other) = if self.write_mode {
-            (&self.q.writes[b], &self.q.reads[b])
+        match self.served_list(b).first() {
+            Some(&first) => Ok(first),
+            None => Err(Some(None)),
+        }
+    }
+
+    /// Bank `b`'s queue being served (writes in write-drain mode) and the other.
+    #[inline(always)]
+    fn served_list(&self, b: usize) -> &[u32] {
+        if self.write_mode {
+            &self.q.writes[b]
         } else {
-            (&self.q.reads[b], &self.q.writes[b])
-        };
-        let Some(&first) = served.first() else {
-            return Some(None);
-        };
-        let column = |s: u32| match self.q.get(s).op {
+            &self.q.reads[b]
+        }
+    }
+
+    /// The column command serving the request in `slot`.
+    #[inline(always)]
+    fn column_cmd(&self, slot: u32) -> Cmd {
+        match self.q.get(slot).op {
             MemOp::Read => Cmd::Rd,
             MemOp::Write => Cmd::Wr,
+        }
+    }
+
+    /// [`Channel::offer_after_first`] after a PRE for the request in `slot`.
+    #[inline(always)]
+    fn offer_after_pre(&self, b: usize, slot: u32) -> Option<Option<Candidate>> {
+        match self.offer_after_first(b) {
+            Ok(first) if first == slot => Some(Some(Candidate::for_request(
+                &self.q,
+                Cmd::Act,
+                first,
+                false,
+            ))),
+            Ok(_) => None,
+            Err(o) => o,
+        }
+    }
+
+    /// [`Channel::offer_after_first`] after an ACT for the request in `slot`.
+    #[inline(always)]
+    fn offer_after_act(&self, b: usize, slot: u32) -> Option<Option<Candidate>> {
+        match self.offer_after_first(b) {
+            Ok(first) if first == slot => Some(Some(Candidate::for_request(
+                &self.q,
+                self.column_cmd(first),
+                first,
+                true,
+            ))),
+            Ok(_) => None,
+            Err(o) => o,
+        }
+    }
+
+    /// [`Channel::offer_after_first`] after a column command, with auto-precharge if
+    /// `closed`.
+    #[inline(always)]
+    fn offer_after_column(&self, b: usize, closed: bool) -> Option<Option<Candidate>> {
+        let first = match self.offer_after_first(b) {
+            Ok(first) => first,
+            Err(o) => return o,
         };
-        let (offer, target, hit) = match cmd {
-            Cmd::Pre if first == slot => (Cmd::Act, first, false),
-            Cmd::Act if first == slot => (column(first), first, true),
-            Cmd::Rd | Cmd::Wr => {
-                let open_row = self.engine.open_row(b);
-                if self.q.row(first) == open_row {
-                    (column(first), first, true)
-                } else {
-                    let c = &self.ctl;
-                    let hit = match c.scheduler {
-                        SchedulerKind::FrFcfs
-                            if c.row_hit_cap == 0 || self.sched[b].streak < c.row_hit_cap =>
-                        {
-                            served.iter().copied().find(|&s| self.q.row(s) == open_row)
-                        }
-                        SchedulerKind::FrFcfs | SchedulerKind::Fcfs => None,
-                        SchedulerKind::UsimmFcfs => return None,
+        if closed {
+            return (self.sched[b].pre_target == NIL)
+                .then(|| Some(Candidate::for_request(&self.q, Cmd::Act, first, false)));
+        }
+        let open_row = self.engine.open_row(b);
+        let (offer, target) = if self.q.row(first) == open_row {
+            (self.column_cmd(first), first)
+        } else {
+            let c = &self.ctl;
+            let hit = match c.scheduler {
+                SchedulerKind::FrFcfs
+                    if c.row_hit_cap == 0 || self.sched[b].streak < c.row_hit_cap =>
+                {
+                    self.served_list(b)
+                        .iter()
+                        .copied()
+                        .find(|&s| self.q.row(s) == open_row)
+                }
+                SchedulerKind::FrFcfs | SchedulerKind::Fcfs => None,
+                SchedulerKind::UsimmFcfs => return None,
+            };
+            match hit {
+                Some(h) => (self.column_cmd(h), h),
+                None => {
+                    let other = if self.write_mode {
+                        &self.q.reads[b]
+                    } else {
+                        &self.q.writes[b]
                     };
-                    match hit {
-                        Some(h) => (column(h), h, true),
-                        None if c.write_drain == WriteDrainKind::ProtectRows
-                            && !other.is_empty() =>
-                        {
-                            return None;
-                        }
-                        None => (Cmd::Pre, first, false),
+                    if c.write_drain == WriteDrainKind::ProtectRows && !other.is_empty() {
+                        return None;
                     }
+                    return Some(Some(Candidate::for_request(
+                        &self.q,
+                        Cmd::Pre,
+                        first,
+                        false,
+                    )));
                 }
             }
-            Cmd::Rda | Cmd::Wra if self.sched[b].pre_target == NIL => (Cmd::Act, first, false),
-            _ => return None,
         };
-        Some(Some(Candidate::for_request(&self.q, offer, target, hit)))
+        Some(Some(Candidate::for_request(&self.q, offer, target, true)))
+    }
+
+    /// [`Channel::offer_after_first`] after a rank command (or a refresh's PRE): recompute,
+    /// unless the served list is empty.
+    #[inline]
+    fn offer_after_rank(&self, b: usize) -> Option<Option<Candidate>> {
+        match self.offer_after_first(b) {
+            Err(o) => o,
+            Ok(_) => None,
+        }
     }
 
     #[inline]
@@ -830,27 +903,18 @@ impl Channel {
         None
     }
 
+    /// Issue the choice `c` at `t`: one dispatch on its kind, whose branch then updates the
+    /// engine, the stats and the bank's offer with the kind known.
     fn issue(&mut self, c: Choice, t: u64, out: &mut CompletionQueue) {
         let b = c.bank;
         let rank = b >> self.rank_shift;
-        let mut cmd = c.cmd;
-        let mut auto_close = false;
-        if matches!(cmd, Cmd::Rd | Cmd::Wr)
-            && row_policy::auto_precharge(self.ctl.row_policy, &self.q, b, c.row, c.slot)
-        {
-            auto_close = true;
-            cmd = if cmd == Cmd::Rd { Cmd::Rda } else { Cmd::Wra };
-        }
-        let act_time = self.engine.act_time(b);
         // The calendar and the bank's offer change.
         self.offers_min = 0;
-        self.engine.issue(cmd, b, c.row, t);
-        if let Some(ch) = &mut self.checker {
-            ch.record(cmd, b, c.row, t);
-        }
         self.last_busy[rank] = t;
-        match cmd {
+        let offer = match c.cmd {
             Cmd::Act => {
+                self.engine.issue_act(b, c.row, t);
+                self.record(Cmd::Act, b, c.row, t);
                 self.stats.activates += 1;
                 let e = self.q.get_mut(c.slot);
                 e.act_for = true;
@@ -860,28 +924,75 @@ impl Channel {
                 }
                 self.sched[b] = BankSched::default();
                 self.power[rank].open(t);
+                self.offer_after_act(b, c.slot)
             }
-            Cmd::Pre => {
-                if c.slot == NIL {
-                    self.stats.refresh_precharges += 1;
-                } else {
-                    self.stats.precharges += 1;
-                    self.q.get_mut(c.slot).pre_for = true;
-                    self.sched[b].pre_target = c.slot;
-                }
+            Cmd::Pre if c.slot != NIL => {
+                self.engine.issue_pre(b, t);
+                self.record(Cmd::Pre, b, c.row, t);
+                self.stats.precharges += 1;
+                self.q.get_mut(c.slot).pre_for = true;
+                self.sched[b].pre_target = c.slot;
                 self.power[rank].close(t);
+                self.offer_after_pre(b, c.slot)
             }
-            Cmd::Rd | Cmd::Wr | Cmd::Rda | Cmd::Wra => {
-                self.column(c.slot, b, t, cmd, out);
+            Cmd::Rd | Cmd::Wr => {
+                let auto_close =
+                    row_policy::auto_precharge(self.ctl.row_policy, &self.q, b, c.row, c.slot);
+                let read = c.cmd == Cmd::Rd;
+                let cmd = match (read, auto_close) {
+                    (true, false) => Cmd::Rd,
+                    (false, false) => Cmd::Wr,
+                    (true, true) => Cmd::Rda,
+                    (false, true) => Cmd::Wra,
+                };
+                let act_time = self.engine.act_time(b);
+                self.engine.issue_column(cmd, b, c.row, t);
+                self.record(cmd, b, c.row, t);
+                self.column(c.slot, b, t, read, out);
                 if auto_close {
                     self.stats.auto_precharges += 1;
-                    let at = if cmd == Cmd::Rda {
+                    let at = if read {
                         (t + self.rtp).max(act_time + self.ras)
                     } else {
                         (t + self.cwl + self.burst + self.wr).max(act_time + self.ras)
                     };
                     self.power[rank].close_at(t, at);
                 }
+                self.offer_after_column(b, auto_close)
+            }
+            _ => {
+                self.issue_rank_command(c, t);
+                self.offer_after_rank(b)
+            }
+        };
+        match offer {
+            Some(o) if !self.dirty[b] => {
+                self.offers.set(b, o, self.ctl.scheduler, &self.engine);
+            }
+            _ => self.mark_dirty(b),
+        }
+        self.settle_candidates();
+    }
+
+    /// Tell the checker, if any, of a command issued.
+    #[inline(always)]
+    fn record(&mut self, cmd: Cmd, b: usize, row: u32, t: u64) {
+        if let Some(ch) = &mut self.checker {
+            ch.record(cmd, b, row, t);
+        }
+    }
+
+    /// [`Channel::issue`] for a refresh's PRE (no request) and the rank commands.
+    #[inline(never)]
+    fn issue_rank_command(&mut self, c: Choice, t: u64) {
+        let b = c.bank;
+        let rank = b >> self.rank_shift;
+        self.engine.issue(c.cmd, b, c.row, t);
+        self.record(c.cmd, b, c.row, t);
+        match c.cmd {
+            Cmd::Pre => {
+                self.stats.refresh_precharges += 1;
+                self.power[rank].close(t);
             }
             Cmd::Ref => {
                 self.stats.refreshes += 1;
@@ -897,23 +1008,18 @@ impl Channel {
                 self.power[rank].set_powered_down(t, false);
                 self.mark_rank_dirty(rank);
             }
-        }
-        match self.offer_after(cmd, b, c.slot) {
-            Some(o) if !self.dirty[b] => {
-                self.offers.set(b, o, self.ctl.scheduler, &self.engine);
+            Cmd::Act | Cmd::Rd | Cmd::Wr | Cmd::Rda | Cmd::Wra => {
+                unreachable!("request commands are issued by Channel::issue")
             }
-            _ => self.mark_dirty(b),
         }
-        self.settle_candidates();
     }
 
     /// A column command for the request in `slot`: classify it, schedule its completion (and
     /// that of requests merged into it) and free its queue slots.
-    fn column(&mut self, slot: u32, b: usize, t: u64, cmd: Cmd, out: &mut CompletionQueue) {
+    fn column(&mut self, slot: u32, b: usize, t: u64, read: bool, out: &mut CompletionQueue) {
         self.integrate_occupancy(t);
         self.q.unlist(slot);
         let e = *self.q.get(slot);
-        let read = matches!(cmd, Cmd::Rd | Cmd::Rda);
         let s = &mut self.stats;
         let (hits, misses, conflicts) = if read {
             s.column_reads += 1;
@@ -1159,12 +1265,15 @@ struct Offers {
     entries: Vec<CalendarOffers>,
     banks_per_group: usize,
     /// `bank_arbitration = round-robin`: every offer has the same priority, and among equals
-    /// the first bank from `turn` on (cyclically) wins; `turn` is 0 otherwise, so the lowest
-    /// bank wins.
+    /// the first bank from `turn` on (cyclically) wins; `turn` is 0 otherwise (where no two
+    /// offers have equal priority).
     round_robin: bool,
     turn: usize,
     /// Banks − 1 (a power of two minus one).
     bank_mask: usize,
+    /// `bank_mask` under round robin, else 0: the part of a bank's position from `turn` in
+    /// [`Offers::pick`]'s key.
+    rr_mask: usize,
 }
 
 /// The offers of one calendar entry (a bank group and a kind).
@@ -1219,6 +1328,11 @@ impl Offers {
             round_robin: arbitration == BankArbitration::RoundRobin,
             turn: 0,
             bank_mask: banks - 1,
+            rr_mask: if arbitration == BankArbitration::RoundRobin {
+                banks - 1
+            } else {
+                0
+            },
             cand: vec![Candidate::NONE; banks],
             slots: vec![OfferSlot::NONE; banks],
             entries: vec![
@@ -1288,73 +1402,116 @@ impl Offers {
         self.slots[b].local != u64::MAX && self.cand[b].cmd == cmd
     }
 
-    /// The earliest ready time of any offer (`u64::MAX` if none): one look per calendar entry.
+    /// The earliest ready time of any offer (`u64::MAX` if none): one look per calendar entry
+    /// (an entry without members has `min_local = u64::MAX`).
     #[inline]
     fn min_ready(&self, shared: &Calendar) -> u64 {
         let mut min = u64::MAX;
         for (i, e) in self.entries.iter().enumerate() {
-            if e.members != 0 {
-                min = min.min(e.min_local.max(shared[i % CALENDAR_LEN]));
-            }
+            min = min.min(e.min_local.max(shared[i % CALENDAR_LEN]));
         }
         min
     }
 
-    /// The ready offer of highest priority at `t` among the entries' members (the lowest bank
-    /// among equals), offers whose bank's `primary` offer is ready excepted when given (an
+    /// The ready offer of highest priority at `t` among the entries' members (under round
+    /// robin the first from `turn` on), offers whose bank's `primary` offer is ready excepted when given (an
     /// alternative yields to its bank's offer); `best` is updated in place, and the earliest
     /// ready time of all is returned.
+    ///
+    /// Which offers are ready depends on the data, so the pass avoids branching on it: per
+    /// bank group, the members of its entries whose time has passed form one mask (a bank
+    /// offers one kind, so the entries' members are disjoint), and a member replaces `best`
+    /// by a selection on its key. (priority, position from `turn`) orders the banks totally,
+    /// so the order of the visits does not change the pick.
     #[inline]
-    fn pick(
-        &self,
-        primary: Option<&Offers>,
-        shared: &Calendar,
-        t: u64,
-        best: &mut (u64, usize, bool),
-    ) -> u64 {
+    fn pick(&self, primary: Option<&Offers>, shared: &Calendar, t: u64, best: &mut Best) -> u64 {
         let mut min = u64::MAX;
-        for (i, e) in self.entries.iter().enumerate() {
-            if e.members == 0 {
-                continue;
+        // In registers for the pass.
+        let Best {
+            key: mut best_key,
+            bank: mut best_bank,
+            alt: mut best_alt,
+        } = *best;
+        for (g, group) in self.entries.chunks_exact(SHARED_STRIDE).enumerate() {
+            let mut ready = 0u64;
+            for (k, e) in group.iter().enumerate() {
+                // No members: `min_local` is `u64::MAX`, never ready.
+                let r = e
+                    .min_local
+                    .max(shared[(g * SHARED_STRIDE + k) % CALENDAR_LEN]);
+                min = min.min(r);
+                // The shared time has passed: the members whose own time has are ready.
+                ready |= e.members & mask(r <= t);
             }
-            let r = e.min_local.max(shared[i % CALENDAR_LEN]);
-            min = min.min(r);
-            if r > t {
-                continue;
-            }
-            // The shared time has passed: the members whose own time has are ready.
-            let base = i / SHARED_STRIDE * self.banks_per_group;
-            let mut bits = e.members;
-            while bits != 0 {
-                let b = base + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
+            let base = g * self.banks_per_group;
+            while ready != 0 {
+                let b = base + ready.trailing_zeros() as usize;
+                ready &= ready - 1;
                 let o = &self.slots[b];
-                if o.local > t || primary.is_some_and(|p| p.slots[b].ready(shared) <= t) {
-                    continue;
-                }
-                // Among equals the first bank from `turn` on (the lowest bank when `turn` is 0).
-                let after = |x: usize| x.wrapping_sub(self.turn) & self.bank_mask;
-                if o.priority < best.0 || (o.priority == best.0 && after(b) < after(best.1)) {
-                    *best = (o.priority, b, primary.is_some());
-                }
+                // Round robin: every priority is 0, and the first bank from `turn` on wins.
+                // Otherwise the priorities of the offers and alternatives are distinct (each
+                // serves its own request, and a request's age is its own), so they alone are
+                // the key.
+                let key = o.priority | (b.wrapping_sub(self.turn) & self.rr_mask) as u64;
+                let ready = (o.local <= t) & primary.is_none_or(|p| p.slots[b].ready(shared) > t);
+                debug_assert!(!ready || key != best_key, "two offers of equal priority");
+                let take = ready & (key < best_key);
+                let m = mask(take);
+                best_key = (key & m) | (best_key & !m);
+                best_bank = (b & m as usize) | (best_bank & !m as usize);
+                best_alt = (take & primary.is_some()) | (!take & best_alt);
             }
         }
+        *best = Best {
+            key: best_key,
+            bank: best_bank,
+            alt: best_alt,
+        };
         min
     }
 
-    /// The ready offer of highest priority at `t` (the lowest bank among equals), where an
+    /// The ready offer of highest priority at `t` (under round robin the first bank from
+    /// `turn` on), where an
     /// offer that cannot issue yields to its bank's alternative (`alts`), if that can; and the
     /// earliest ready time of all.
     #[inline]
     fn scan(&self, alts: Option<&Offers>, shared: &Calendar, t: u64) -> Pick {
-        let mut best = (u64::MAX, usize::MAX, false);
+        let mut best = Best {
+            key: u64::MAX,
+            bank: usize::MAX,
+            alt: false,
+        };
         let mut min = self.pick(None, shared, t, &mut best);
         if let Some(a) = alts {
             min = min.min(a.pick(Some(self), shared, t, &mut best));
         }
         Pick {
-            best: (best.1 != usize::MAX).then_some((best.1, best.2)),
+            best: (best.bank != usize::MAX).then_some((best.bank, best.alt)),
             min_ready: min,
         }
     }
+}
+
+/// The best offer so far in [`Offers::pick`]: its key (priority, or under round robin the
+/// position from the turn; smaller wins), bank and whether it is an alternative.
+#[derive(Clone, Copy, Debug)]
+struct Best {
+    key: u64,
+    bank: usize,
+    alt: bool,
+}
+
+/// All ones if `c`, else 0: for selections on data the branch predictor cannot learn. The
+/// mask is hidden from the optimiser (an empty `asm!` that passes it through a register), which
+/// would otherwise turn the selection back into a branch.
+#[inline(always)]
+fn mask(c: bool) -> u64 {
+    #[allow(unused_mut)]
+    let mut m = 0u64.wrapping_sub(u64::from(c));
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: the template is empty: `m` is left as it is, no memory, stack or flags touched.
+    unsafe {
+        std::arch::asm!("/* {0} */", inout(reg) m, options(pure, nomem, nostack, preserves_flags));
+    }
+    m
 }
