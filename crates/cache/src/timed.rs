@@ -320,7 +320,9 @@ impl Node {
         m.start = t;
         m.dirty = dirty;
         m.targets.clear();
-        m.targets.extend(target);
+        if let Some(x) = target {
+            m.targets.push(x);
+        }
         let line = self.line(addr);
         self.in_flight.insert(line, i);
         let used = self.mshrs_used() as u64;
@@ -334,7 +336,9 @@ impl Node {
         };
         let m = &mut self.mshrs[i];
         m.dirty |= dirty;
-        m.targets.extend(target);
+        if let Some(x) = target {
+            m.targets.push(x);
+        }
         self.cache.stats.mshr_merges += 1;
         true
     }

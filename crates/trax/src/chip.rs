@@ -109,6 +109,9 @@ pub(crate) struct Core {
     pub tm: u32,
     /// First column of its instruction cache's banks in a calendar row.
     pub icache_col: u32,
+    /// Its instruction cache within its TM (`tp % tps_per_tm % icaches_per_tm`, kept so the
+    /// engines do not divide for it at every turn).
+    pub icache: u32,
     pub wait: Wait,
     /// Cycle each register's value can be read, relative to `base`.
     ready: [u32; 32],
@@ -465,6 +468,7 @@ impl<'a, S: Source> Chip<'a, S> {
         let cores = (0..n as u32)
             .map(|tp| Core {
                 tm: tp / cfg.tps_per_tm,
+                icache: tp % cfg.tps_per_tm % cfg.icaches_per_tm,
                 icache_col: UNIT_CLASSES as u32
                     + (tp % cfg.tps_per_tm % cfg.icaches_per_tm) * cfg.icache_banks,
                 run: src.first_run(),

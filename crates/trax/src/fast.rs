@@ -811,15 +811,12 @@ pub fn run<S: Source>(
         // key `t` in TP order (`docs/TRAX.md`). A resuming TP's access in this cycle is
         // offered in its turn: its key, `t`, is the largest of the cycle.
         offers.clear();
-        offers.extend(
-            batch
-                .iter()
-                .filter(|&&tp| chip.cores[tp as usize].wait == Wait::Access)
-                .map(|&tp| {
-                    let c = &chip.cores[tp as usize];
-                    (c.tm, c.key, tp)
-                }),
-        );
+        for &tp in batch.iter() {
+            let c = &chip.cores[tp as usize];
+            if c.wait == Wait::Access {
+                offers.push((c.tm, c.key, tp));
+            }
+        }
         // The batch is in TP order, so TM by TM: order each TM's run by key (a few TPs:
         // insertion sort).
         insertion_sort(&mut offers);
@@ -970,9 +967,8 @@ fn run_ahead<S: Source>(
     t: u64,
 ) -> Result<(), ChipError> {
     let tm = chip.cores[tp].tm as usize;
-    let per_tm = chip.cfg.tps_per_tm as usize;
     let icaches = chip.cfg.icaches_per_tm as usize;
-    let lane = tm * icaches + tp % per_tm % icaches;
+    let lane = tm * icaches + chip.cores[tp].icache as usize;
     loop {
         let Some(i) = chip.current(tp) else {
             return Ok(());

@@ -233,20 +233,24 @@ impl Cx<'_, '_, '_, '_, '_> {
             *tp += tp0 as u32;
         }
         offers.clear();
-        offers.extend(
-            batch
-                .iter()
-                .filter(|&&tp| self.core(tp as usize).wait == Wait::Access)
-                .map(|&tp| {
-                    let c = self.core(tp as usize);
-                    (c.tm, c.key, tp)
-                }),
-        );
+        for &tp in batch.iter() {
+            let c = self.core(tp as usize);
+            if c.wait == Wait::Access {
+                offers.push((c.tm, c.key, tp));
+            }
+        }
         insertion_sort(&mut offers);
+        // TM by TM, visiting only the TMs that have an offer or a resume (the others' turns
+        // do nothing): both lists are sorted by TM.
+        let per_tm = self.sh.per_tm;
         let (mut o, mut b) = (0, 0);
-        for tm in self.shard.tm0..self.shard.tm0 + self.shard.tms {
+        while o < offers.len() || b < batch.len() {
+            let tm_o = offers.get(o).map_or(usize::MAX, |x| x.0 as usize);
+            let tm_b = batch.get(b).map_or(usize::MAX, |&tp| self.tm_of(tp));
+            let tm = tm_o.min(tm_b);
+            let end_tp = (tm + 1) * per_tm;
             let o_end = o + offers[o..].partition_point(|x| x.0 as usize == tm);
-            let b_end = b + batch[b..].partition_point(|&tp| self.tm_of(tp) == tm);
+            let b_end = b + batch[b..].partition_point(|&tp| (tp as usize) < end_tp);
             if let Some(stop) = self.tm_offers(tm, &offers[o..o_end], o, t) {
                 self.shard.stops.push(stop);
             } else if let Some(stop) = self.tm_resumes(&batch[b..b_end], b, t) {
@@ -419,10 +423,7 @@ impl Cx<'_, '_, '_, '_, '_> {
         let tm = self.cores[l].tm as usize;
         let (ltm, lane) = {
             let ltm = tm - self.shard.tm0;
-            (
-                ltm,
-                ltm * self.sh.icaches + tp % self.sh.per_tm % self.sh.icaches,
-            )
+            (ltm, ltm * self.sh.icaches + self.cores[l].icache as usize)
         };
         loop {
             let i = self.current(tp)?;
@@ -485,7 +486,9 @@ impl Cx<'_, '_, '_, '_, '_> {
                 let (out, send) = self.leaves.access(&core.data_request(&d, tp, t));
                 let log = sh.sends(self.round, tm);
                 let sends_before = log.len() as u32;
-                log.extend(send);
+                if let Some(s) = send {
+                    log.push(s);
+                }
                 match out {
                     LeafOutcome::Now(o) => {
                         if let busy @ Offered::Busy { .. } =
