@@ -115,6 +115,18 @@ fn bench_sim_runs_strata_and_bad_settings_name_their_key() {
         line.contains("STRaTA") && line.contains("baseline") && line.ends_with("the baseline's"),
         "{line}"
     );
+    // And per simulated cycle, with a ratio that is a number.
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("per cycle"))
+        .unwrap_or_else(|| panic!("no per-cycle line: {stdout}"));
+    let ratio: f64 = line
+        .rsplit("STRaTA ")
+        .next()
+        .and_then(|r| r.split('×').next())
+        .and_then(|r| r.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no ratio in {line}"));
+    assert!(ratio.is_finite() && ratio > 0.0, "{line}");
     let e = fails(rtsim().args(["bench-sim", "--against-baseline", "--cycle-limit", "10"]));
     assert!(e.contains("--arch strata"), "{e}");
     let dir = tempfile::tempdir().unwrap();
