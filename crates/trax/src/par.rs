@@ -56,8 +56,11 @@ const PARALLEL_MIN: u32 = 24;
 /// (other programs, or other runs) the crew's hand-overs wait for descheduled threads and
 /// cost more than they save. Cycles are counted in windows of [`Pace::WINDOW`]; each window
 /// measures the work it did (TPs and returned misses handled) per second in its mode; the
-/// mode with the better rate runs, and every [`Pace::PROBE`] windows the other one is tried
-/// again.
+/// mode with the better rate runs, and now and then the other one is tried again: after
+/// [`Pace::PROBE`] windows, and after twice as many each time the other one loses again (up
+/// to [`Pace::PROBE_MAX`]), since on a machine that stays busy every probe of the crew costs a
+/// slow window (about 15 % of the time with probes every 16 windows, measured); a probe that
+/// wins, or a change of the better mode between probes, starts again from `PROBE`.
 #[derive(Debug)]
 struct Pace {
     crew: bool,
@@ -67,11 +70,19 @@ struct Pace {
     windows: u32,
     /// Work per second last measured: alone, and with the crew.
     rate: [f64; 2],
+    /// The window that runs in the other mode next, and the gap after it if it loses.
+    next_probe: u32,
+    gap: u32,
+    /// The window running now is a probe.
+    probing: bool,
 }
 
 impl Pace {
     const WINDOW: u32 = 2048;
     const PROBE: u32 = 16;
+    /// Assumed: 256 windows of 2,048 cycles are about half a minute of a full chip, how long
+    /// a freed core may go unused.
+    const PROBE_MAX: u32 = 256;
 
     fn new() -> Pace {
         Pace {
@@ -81,6 +92,10 @@ impl Pace {
             work: 0,
             windows: 0,
             rate: [0.0; 2],
+            // The second window runs alone, so that both modes have a rate.
+            next_probe: 1,
+            gap: Self::PROBE,
+            probing: false,
         }
     }
 
@@ -102,15 +117,26 @@ impl Pace {
     /// The window ends after `secs` seconds: record its rate and choose the next one's mode.
     fn close_window(&mut self, secs: f64) {
         self.rate[self.crew as usize] = self.work as f64 / secs.max(1e-9);
+        let closed = self.windows;
         self.windows += 1;
-        // The better mode; the other for one window now and then (and the second window, so
-        // that both have a rate).
         let best = self.rate[1] >= self.rate[0];
-        self.crew = if self.windows % Self::PROBE == 1 {
-            !best
-        } else {
-            best
-        };
+        if self.probing {
+            if closed > 1 {
+                // The first probe only measures; later ones that lose space out.
+                self.gap = if best == self.crew {
+                    Self::PROBE
+                } else {
+                    (2 * self.gap).min(Self::PROBE_MAX)
+                };
+            }
+            self.next_probe = closed + self.gap;
+        } else if best != self.crew {
+            // The mode that ran fell behind the other's last rate: the load changed.
+            self.gap = Self::PROBE;
+        }
+        // The better mode; the other for one window at the probes.
+        self.probing = self.windows == self.next_probe;
+        self.crew = best != self.probing;
         self.start = std::time::Instant::now();
         self.cycles = 0;
         self.work = 0;
@@ -876,16 +902,33 @@ mod tests {
         out
     }
 
+    /// The windows that probe the slower mode when it always loses: 1 (the first
+    /// measurement), then PROBE after it, then gaps doubling up to PROBE_MAX.
+    fn probes_when_losing(windows: usize) -> Vec<usize> {
+        let (mut w, mut gap, mut out) = (1, Pace::PROBE as usize, vec![1]);
+        loop {
+            w += gap;
+            if w >= windows {
+                return out;
+            }
+            out.push(w);
+            gap = (2 * gap).min(Pace::PROBE_MAX as usize);
+        }
+    }
+
     #[test]
-    fn pace_keeps_the_faster_mode_and_probes_the_other() {
+    fn pace_keeps_the_faster_mode_and_probes_the_other_less_often() {
         for (alone, crew) in [(2.0, 1.0), (1.0, 2.0)] {
-            let m = modes(alone, crew, 4 * Pace::PROBE as usize);
+            let n = 2000;
+            let m = modes(alone, crew, n);
             let faster = crew < alone;
             // The first window runs on the crew and the second alone, so both have a rate.
             assert_eq!(&m[..2], &[true, false]);
+            let probes = probes_when_losing(n);
+            assert_eq!(&probes[..5], &[1, 17, 49, 113, 241]);
+            assert!(probes.windows(2).skip(5).all(|p| p[1] - p[0] == 256));
             for (w, &mode) in m.iter().enumerate().skip(2) {
-                // Window w follows w closed windows; every PROBE-th tries the slower mode.
-                let probe = w % Pace::PROBE as usize == 1;
+                let probe = probes.contains(&w);
                 assert_eq!(mode, faster != probe, "window {w}, crew faster: {faster}");
             }
         }
@@ -894,22 +937,33 @@ mod tests {
     #[test]
     fn pace_follows_a_change_of_load() {
         // The crew is faster, then (another program takes a core) slower: from the window
-        // after its first slow one, the single thread runs, the crew only as a probe.
+        // after its first slow one, the single thread runs, the crew only as a probe, less
+        // and less often; when the core is free again the next probe wins and the crew runs.
         let mut p = Pace::new();
         let mut crew_secs = 1.0;
         let mut seen = Vec::new();
-        for w in 0..3 * Pace::PROBE as usize {
-            if w == Pace::PROBE as usize / 2 {
+        let (busy, free) = (8, 600);
+        for w in 0..800 {
+            if w == busy {
                 crew_secs = 4.0;
+            }
+            if w == free {
+                crew_secs = 1.0;
             }
             seen.push(p.crew);
             p.work = 1000;
             p.close_window(if p.crew { crew_secs } else { 2.0 });
         }
-        let half = Pace::PROBE as usize / 2;
-        assert!(seen[2..=half].iter().all(|&c| c));
-        for (w, &c) in seen.iter().enumerate().skip(half + 1) {
-            assert_eq!(c, w % Pace::PROBE as usize == 1, "window {w}");
+        assert!(seen[2..=busy].iter().all(|&c| c));
+        // Probes of the crew at 17, 49, 113, 241, 497 (each lost), then 753 (won).
+        let probes = [17, 49, 113, 241, 497];
+        for (w, &c) in seen.iter().enumerate().take(753).skip(busy + 1) {
+            assert_eq!(c, probes.contains(&w), "window {w}");
         }
+        // Alone is now the probed mode, from the shortest gap again: 769 (lost), then 801.
+        for (w, &c) in seen.iter().enumerate().skip(753) {
+            assert_eq!(c, w != 753 + Pace::PROBE as usize, "window {w}");
+        }
+        assert_eq!(p.next_probe, 753 + 3 * Pace::PROBE);
     }
 }
