@@ -196,19 +196,20 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
     Ok(())
 }
 
-/// Host nanoseconds per simulated core cycle of a run, measured as [`per_instruction`].
+/// Host nanoseconds per simulated core cycle of a run.
 fn per_cycle(r: &simulate::trax::Ran) -> (f64, &'static str) {
-    let n = r.out.report.cycles.max(1) as f64;
-    match r.cpu_seconds {
-        Some(cpu) => (cpu * 1e9 / n, "CPU"),
-        None => (r.seconds * 1e9 / n, "wall"),
-    }
+    per(r, r.out.report.cycles)
 }
 
-/// Host nanoseconds per simulated instruction of a run: per CPU second where the platform
-/// reports it (both runs measured alike), else per wall second.
+/// Host nanoseconds per simulated instruction of a run.
 fn per_instruction(r: &simulate::trax::Ran) -> (f64, &'static str) {
-    let n = r.out.report.instructions.total.max(1) as f64;
+    per(r, r.out.report.instructions.total)
+}
+
+/// Host nanoseconds per `n` of a run: per CPU second where the platform reports it (both runs
+/// measured alike), else per wall second.
+fn per(r: &simulate::trax::Ran, n: u64) -> (f64, &'static str) {
+    let n = n.max(1) as f64;
     match r.cpu_seconds {
         Some(cpu) => (cpu * 1e9 / n, "CPU"),
         None => (r.seconds * 1e9 / n, "wall"),
