@@ -60,7 +60,10 @@ const PARALLEL_MIN: u32 = 24;
 /// [`Pace::PROBE`] windows, and after twice as many each time the other one loses again (up
 /// to [`Pace::PROBE_MAX`]), since on a machine that stays busy every probe of the crew costs a
 /// slow window (about 15 % of the time with probes every 16 windows, measured); a probe that
-/// wins, or a change of the better mode between probes, starts again from `PROBE`.
+/// wins, or a change of the better mode between probes, starts again from `PROBE`. Probes (and
+/// the first two windows, which measure each mode once) last [`Pace::PROBE_WINDOW`] cycles
+/// only: with a core taken by another program, a crew window can take many times as long as
+/// the same cycles alone, since each hand-over waits for a descheduled thread.
 #[derive(Debug)]
 struct Pace {
     crew: bool,
@@ -75,10 +78,14 @@ struct Pace {
     gap: u32,
     /// The window running now is a probe.
     probing: bool,
+    /// Cycles of the window running now.
+    len: u32,
 }
 
 impl Pace {
     const WINDOW: u32 = 2048;
+    /// Assumed: 256 cycles of the full chip are ten milliseconds or more, enough to time.
+    const PROBE_WINDOW: u32 = 256;
     const PROBE: u32 = 16;
     /// Assumed: 256 windows of 2,048 cycles are about half a minute of a full chip, how long
     /// a freed core may go unused.
@@ -96,6 +103,7 @@ impl Pace {
             next_probe: 1,
             gap: Self::PROBE,
             probing: false,
+            len: Self::PROBE_WINDOW,
         }
     }
 
@@ -104,7 +112,7 @@ impl Pace {
     fn count(&mut self, work: u32) {
         self.work += work as u64;
         self.cycles += 1;
-        if self.cycles == Self::WINDOW {
+        if self.cycles == self.len {
             self.next_window();
         }
     }
@@ -137,6 +145,11 @@ impl Pace {
         // The better mode; the other for one window at the probes.
         self.probing = self.windows == self.next_probe;
         self.crew = best != self.probing;
+        self.len = if self.probing {
+            Self::PROBE_WINDOW
+        } else {
+            Self::WINDOW
+        };
         self.start = std::time::Instant::now();
         self.cycles = 0;
         self.work = 0;
@@ -930,6 +943,19 @@ mod tests {
             for (w, &mode) in m.iter().enumerate().skip(2) {
                 let probe = probes.contains(&w);
                 assert_eq!(mode, faster != probe, "window {w}, crew faster: {faster}");
+            }
+            // Measuring windows are short, the others long.
+            let mut p = Pace::new();
+            for w in 0..300 {
+                let short = w < 2 || probes.contains(&w);
+                let want = if short {
+                    Pace::PROBE_WINDOW
+                } else {
+                    Pace::WINDOW
+                };
+                assert_eq!(p.len, want, "window {w}");
+                p.work = 1000;
+                p.close_window(if p.crew { crew } else { alone });
             }
         }
     }
