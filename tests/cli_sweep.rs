@@ -167,12 +167,32 @@ fn bad_points_fail_before_anything_runs_and_failing_points_are_reported() {
         "{line}"
     );
     assert!(!out.join("points").exists());
-    // A scene that does not exist fails when its point runs; the others finish.
+    // A scene that does not exist: also refused before any point runs.
+    let missing = tmp.path().join("missing.toml");
+    std::fs::write(
+        &missing,
+        "name = \"m\"\ncommand = \"render\"\n[base]\nworkload = { width = 8, height = 8 }\n\
+         [grid]\n\"scene.name\" = [\"cornell\", \"no-such-scene\"]\n",
+    )
+    .unwrap();
+    let line = fails(&mut sweep(&missing, &out));
+    assert!(
+        line.contains("point 1") && line.contains("no-such-scene"),
+        "{line}"
+    );
+    assert!(!out.join("points").exists());
+    // A scene file that exists but does not parse fails when its point runs; the others
+    // finish, and the failed point says how its process ended.
+    let broken = tmp.path().join("broken.obj");
+    std::fs::write(&broken, "v 0 0 0\nf 1 2 oops\n").unwrap();
     let failing = tmp.path().join("failing.toml");
     std::fs::write(
         &failing,
-        "name = \"f\"\ncommand = \"render\"\n[base]\nworkload = { width = 8, height = 8 }\n\
-         [grid]\n\"scene.name\" = [\"cornell\", \"no-such-scene\"]\n",
+        format!(
+            "name = \"f\"\ncommand = \"render\"\n[base]\nworkload = {{ width = 8, height = 8 }}\n\
+             [grid]\n\"scene.name\" = [\"cornell\", {:?}]\n",
+            broken.display().to_string()
+        ),
     )
     .unwrap();
     let run = sweep(&failing, &out).output().unwrap();
@@ -184,7 +204,9 @@ fn bad_points_fail_before_anything_runs_and_failing_points_are_reported() {
         "{stderr}"
     );
     let stderr = std::fs::read_to_string(out.join("points/p00001.failed/stderr.txt")).unwrap();
-    assert!(stderr.contains("no-such-scene"), "{stderr}");
+    assert!(stderr.contains("broken.obj"), "{stderr}");
+    let exit = std::fs::read_to_string(out.join("points/p00001.failed/exit.txt")).unwrap();
+    assert!(exit.contains("exit status"), "{exit}");
     assert!(out.join("points/p00000/point.json").is_file());
     let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(summary.contains("\"finished\": 1"), "{summary}");

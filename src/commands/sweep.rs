@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use rtsim_sweep::results::{CSV_FILE, JSONL_FILE, collect, to_csv, to_jsonl};
 use rtsim_sweep::slurm::{SlurmJob, scripts};
-use rtsim_sweep::store::{CONFIG, PointRecord, Status, Store};
+use rtsim_sweep::store::{Build, CONFIG, PointRecord, Status, Store, describe_exit};
 use rtsim_sweep::{Experiment, Point};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -23,7 +23,7 @@ pub struct SweepArgs {
     /// Results directory. Default `results/NAME` (`results/NAME-quick` with --quick).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Points run at once. Default: the number of cores.
+    /// Points run at once, 1 to 256. Default: the number of cores.
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
     /// Apply the experiment's [quick] overrides (minutes instead of hours).
@@ -55,8 +55,21 @@ struct Summary<'a> {
     missing: &'a [usize],
 }
 
+/// Most points run at once (`--jobs`).
+const MAX_JOBS: usize = 256;
+
 pub fn run(args: SweepArgs) -> Result<()> {
+    if let Some(j) = args.jobs.filter(|j| !(1..=MAX_JOBS).contains(j)) {
+        bail!("--jobs {j}: give 1 to {MAX_JOBS} points at once");
+    }
     let e = Experiment::load(&args.experiment)?;
+    if args.quick && !e.has_quick() {
+        bail!(
+            "--quick: {} has no [quick] section (add one with the settings of a quick version, \
+             or run without --quick)",
+            args.experiment.display()
+        );
+    }
     let points = e.points(args.quick)?;
     let out = args.out.clone().unwrap_or_else(|| {
         let suffix = if args.quick { "-quick" } else { "" };
@@ -78,6 +91,12 @@ pub fn run(args: SweepArgs) -> Result<()> {
         return emit_slurm(&args, &e, &out, points.len(), dir);
     }
     if args.merge {
+        if !out.is_dir() {
+            bail!(
+                "--merge: no results directory at {} (run the sweep first, or give its --out)",
+                out.display()
+            );
+        }
         let missing = merge(&e, &points, args.quick, &store)?;
         return unfinished(&missing);
     }
@@ -97,16 +116,31 @@ pub fn run(args: SweepArgs) -> Result<()> {
         }
     };
     let mut pending = Vec::new();
+    let mut other_builds = Vec::new();
+    let build = Build::current();
     for p in todo {
         if store.status(&PointRecord::of(&e, p, args.quick))? == Status::Todo {
             pending.push(p);
+        } else if let Some(rec) = store.record(p.index)?.filter(|r| r.build != build) {
+            other_builds.push(format!("p{:05} ({})", p.index, rec.build));
         }
+    }
+    if !other_builds.is_empty() {
+        // Kept, not rerun: a rebuild rarely changes results, and rerunning is the user's call.
+        let n = other_builds.len();
+        other_builds.truncate(10);
+        eprintln!(
+            "warning: {n} finished point(s) were run by another build than this {build}: {}{}; \
+             remove their directories to rerun them",
+            other_builds.join(", "),
+            if n > 10 { ", …" } else { "" }
+        );
     }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let jobs = args
         .jobs
         .unwrap_or(cores)
-        .clamp(1, 256)
+        .clamp(1, MAX_JOBS)
         .min(pending.len().max(1));
     eprintln!(
         "rtsim sweep: {} `{}`, {} points, {} to run ({} at once), results in {}",
@@ -125,7 +159,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
     if !failures.is_empty() {
         let list: Vec<String> = failures
             .iter()
-            .map(|(i, dir)| format!("p{i:05} ({})", dir.join("stderr.txt").display()))
+            .map(|(i, dir, exit)| format!("p{i:05} {exit} ({})", dir.join("stderr.txt").display()))
             .collect();
         bail!(
             "{} point(s) failed: {}; rerun the sweep to retry them",
@@ -155,8 +189,9 @@ fn unfinished(missing: &[usize]) -> Result<()> {
 }
 
 /// Check every point's settings before any runs (a typo in a grid value fails now, not hours
-/// later).
+/// later): the command line every point runs, its settings, and its scene's name.
 fn validate_points(e: &Experiment, points: &[Point]) -> Result<()> {
+    validate_args(e)?;
     if !e.command.reads_run_config() {
         return Ok(());
     }
@@ -166,12 +201,56 @@ fn validate_points(e: &Experiment, points: &[Point]) -> Result<()> {
             config_text: Some((origin.clone(), p.config_toml.clone())),
             ..rtsim_run::Inputs::default()
         };
-        rtsim_run::layers(&inputs, None)
+        let config = rtsim_run::layers(&inputs, None)
             .and_then(|l| l.build::<rtsim_run::RunConfig>())
             .with_context(|| origin.clone())?;
+        // Only the name: loading every point's scene here would take as long as the sweep.
+        let name = &config.scene.name;
+        let missing = match rtsim_scene::registry::find_scene(name) {
+            Err(err) => Some(err.to_string()),
+            Ok(rtsim_scene::SceneSource::File(path)) if !path.exists() => {
+                Some(format!("no scene file at {}", path.display()))
+            }
+            Ok(_) => None,
+        };
+        if let Some(why) = missing {
+            bail!("{origin}: `scene.name` = {name:?}: {why}");
+        }
     }
     Ok(())
 }
+
+/// Parse the command line each point runs (the experiment's `args` and what the sweep adds), as
+/// the point's process will, so an unknown flag fails before the sweep starts.
+fn validate_args(e: &Experiment) -> Result<()> {
+    use clap::Parser;
+    let mut line: Vec<String> = vec!["rtsim".into(), e.command.name().into()];
+    line.extend(e.args.iter().cloned());
+    line.extend(["--config".into(), CONFIG.into()]);
+    if e.command.has_out_dir() {
+        line.extend(["--out".into(), "out".into()]);
+    }
+    if e.command.reads_run_config() {
+        line.extend(["--threads".into(), "1".into()]);
+    }
+    match crate::cli::Cli::try_parse_from(&line) {
+        Ok(_) => Ok(()),
+        Err(err) => {
+            let text = err.to_string();
+            let first = text.lines().next().unwrap_or_default();
+            let first = first.strip_prefix("error: ").unwrap_or(first);
+            bail!(
+                "{}: `args` = {:?}: `rtsim {}` rejects them: {first}",
+                e.path.display(),
+                e.args,
+                e.command.name()
+            )
+        }
+    }
+}
+
+/// A failed point: its number, directory and how its command ended.
+type Failure = (usize, PathBuf, String);
 
 /// Run `pending` points, `jobs` at a time; returns the failed ones.
 fn run_points(
@@ -180,7 +259,7 @@ fn run_points(
     quick: bool,
     store: &Store,
     jobs: usize,
-) -> Result<Vec<(usize, PathBuf)>> {
+) -> Result<Vec<Failure>> {
     if pending.is_empty() {
         return Ok(Vec::new());
     }
@@ -197,7 +276,12 @@ fn run_points(
                     let Some(p) = pending.get(k) else { break };
                     match run_point(&exe, e, p, quick, store, jobs > 1) {
                         Ok(None) => {}
-                        Ok(Some(dir)) => failures.lock().expect("no panics").push((p.index, dir)),
+                        Ok(Some((dir, exit))) => {
+                            failures
+                                .lock()
+                                .expect("no panics")
+                                .push((p.index, dir, exit));
+                        }
                         Err(err) => errors.lock().expect("no panics").push(err),
                     }
                     bar.inc(1);
@@ -214,7 +298,7 @@ fn run_points(
     Ok(f)
 }
 
-/// Run one point in its staging directory; `Some(dir)` if its command failed.
+/// Run one point in its staging directory; `Some((dir, how it ended))` if its command failed.
 fn run_point(
     exe: &Path,
     e: &Experiment,
@@ -222,7 +306,7 @@ fn run_point(
     quick: bool,
     store: &Store,
     one_thread: bool,
-) -> Result<Option<PathBuf>> {
+) -> Result<Option<(PathBuf, String)>> {
     let rec = PointRecord::of(e, p, quick);
     let dir = store.begin(&rec)?;
     let mut cmd = Command::new(exe);
@@ -250,7 +334,11 @@ fn run_point(
         store.finish(&rec)?;
         Ok(None)
     } else {
-        Ok(Some(store.fail(p.index, &output.stderr)?))
+        // Why it ended (an exit status, or a signal: the OOM killer, a kill -9) goes beside its
+        // stderr, which a killed process may have left empty.
+        let exit = describe_exit(output.status);
+        let dir = store.fail(p.index, &exit, &output.stderr)?;
+        Ok(Some((dir, exit)))
     }
 }
 
@@ -342,4 +430,77 @@ fn emit_slurm(args: &SweepArgs, e: &Experiment, out: &Path, n: usize, dir: &Path
         dir.display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(dir: &Path, text: &str) -> SweepArgs {
+        let experiment = dir.join("exp.toml");
+        std::fs::write(&experiment, text).unwrap();
+        SweepArgs {
+            experiment,
+            out: Some(dir.join("r")),
+            jobs: None,
+            quick: false,
+            point: None,
+            merge: false,
+            emit_slurm: None,
+            list: false,
+        }
+    }
+
+    const EXP: &str = "name = \"t\"\ncommand = \"render\"\n[grid]\nseed = [1, 2]\n";
+
+    fn err(a: SweepArgs) -> String {
+        format!("{:#}", run(a).unwrap_err())
+    }
+
+    #[test]
+    fn flags_out_of_range_or_without_meaning_are_errors() {
+        let tmp = tempfile::tempdir().unwrap();
+        for (jobs, needle) in [(0, "--jobs 0"), (1000, "--jobs 1000")] {
+            let mut a = args(tmp.path(), EXP);
+            a.jobs = Some(jobs);
+            let e = err(a);
+            assert!(e.contains(needle) && e.contains("1 to 256"), "{e}");
+        }
+        let mut a = args(tmp.path(), EXP);
+        a.quick = true;
+        let e = err(a);
+        assert!(e.contains("no [quick] section"), "{e}");
+        let mut a = args(tmp.path(), EXP);
+        a.merge = true;
+        let e = err(a);
+        assert!(e.contains("no results directory at"), "{e}");
+        assert!(!tmp.path().join("r").exists());
+    }
+
+    #[test]
+    fn bad_scene_names_and_arguments_fail_before_any_point_runs() {
+        let tmp = tempfile::tempdir().unwrap();
+        let e = err(args(
+            tmp.path(),
+            "name = \"t\"\ncommand = \"render\"\n[grid]\n\
+             \"scene.name\" = [\"cornell\", \"nosuchscene\"]\n",
+        ));
+        assert!(
+            e.contains("point 1") && e.contains("scene.name") && e.contains("nosuchscene"),
+            "{e}"
+        );
+        let e = err(args(
+            tmp.path(),
+            "name = \"t\"\ncommand = \"render\"\nargs = [\"--frobnicate\"]\n",
+        ));
+        assert!(e.contains("`args`") && e.contains("--frobnicate"), "{e}");
+        assert!(!tmp.path().join("r").exists());
+        // What the shipped experiments pass is accepted.
+        let e = Experiment::parse(
+            "name = \"t\"\ncommand = \"simulate\"\nargs = [\"--arch\", \"strata\"]\n",
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        validate_args(&e).unwrap();
+    }
 }

@@ -15,10 +15,18 @@
 //!
 //! [[point]]                     # explicit points, after the grid's, each over [base]
 //! "scene.name" = "dragon-box"
+//! quick = { "workload.width" = 48 }  # optional: this point's own --quick overrides
 //!
 //! [quick]                       # with --quick: overrides for every point (minutes, not hours)
 //! "workload.width" = 32
+//! "arch.trax.tms" = [1, 4]      # a key the [grid] varies: a list that replaces its values
 //! ```
+//!
+//! With `--quick`, a point's settings are `[base]`, its grid values (a `[quick]` list replacing
+//! a grid key's), its `[[point]]` settings, the `[quick]` scalars, then its own `quick` table.
+//! A point's recorded parameters are the values it runs with. Two points with the same
+//! settings (at either scale) are an error, as is one key written twice in a section (a dotted
+//! key and a nested table).
 //!
 //! Keys are the command's configuration keys (for `dram`, keys under `dram.`, as its
 //! `--config` file takes a `[dram]` table). Grid keys vary in alphabetical order (TOML tables
@@ -104,8 +112,25 @@ pub struct Experiment {
     pub args: Vec<String>,
     base: Vec<(String, Value)>,
     grid: Vec<(String, Vec<Value>)>,
-    points: Vec<Vec<(String, Value)>>,
+    points: Vec<ExplicitPoint>,
+    /// `[quick]`, if the experiment has one: its lists for grid keys and its other settings.
+    quick: Option<Quick>,
+}
+
+/// A `[[point]]`: its settings and its own `quick` overrides.
+#[derive(Clone, Debug)]
+struct ExplicitPoint {
+    settings: Vec<(String, Value)>,
     quick: Vec<(String, Value)>,
+}
+
+/// The `[quick]` section.
+#[derive(Clone, Debug, Default)]
+struct Quick {
+    /// Replacement values of grid keys.
+    grid: Vec<(String, Vec<Value>)>,
+    /// Overrides of every point.
+    settings: Vec<(String, Value)>,
 }
 
 /// One run of an experiment.
@@ -144,6 +169,23 @@ pub fn toml_to_json(v: &Value) -> Json {
                 .collect(),
         ),
     }
+}
+
+/// Flatten a section, refusing a key given twice (`"a.b" = 1` and `a = { b = 2 }` are the same
+/// key; TOML keeps both and one would be silently lost).
+fn flatten_section(t: &Table, section: &str) -> Result<Vec<(String, Value)>, String> {
+    let mut out = Vec::new();
+    flatten("", t, &mut out);
+    let mut keys: Vec<&str> = out.iter().map(|(k, _)| k.as_str()).collect();
+    keys.sort_unstable();
+    if let Some(w) = keys.windows(2).find(|w| w[0] == w[1]) {
+        return Err(format!(
+            "key `{}` is given twice in {section} (as a dotted key and in a nested table); \
+             give it once",
+            w[0]
+        ));
+    }
+    Ok(out)
 }
 
 /// Flatten a table into (dotted key, leaf value) pairs; arrays are leaves. (`rtsim report`
@@ -239,11 +281,7 @@ impl Experiment {
         let section = |root: &mut Table, key: &str| -> Result<Vec<(String, Value)>, SweepError> {
             match root.remove(key) {
                 None => Ok(Vec::new()),
-                Some(Value::Table(t)) => {
-                    let mut v = Vec::new();
-                    flatten("", &t, &mut v);
-                    Ok(v)
-                }
+                Some(Value::Table(t)) => flatten_section(&t, &format!("[{key}]")).map_err(bad),
                 Some(v) => Err(SweepError::invalid(
                     path,
                     format!("[{key}] must be a table, found {v}"),
@@ -251,7 +289,8 @@ impl Experiment {
             }
         };
         let base = section(&mut root, "base")?;
-        let quick = section(&mut root, "quick")?;
+        let has_quick = root.contains_key("quick");
+        let quick_all = section(&mut root, "quick")?;
         let mut grid = Vec::new();
         for (key, values) in section(&mut root, "grid")? {
             match values {
@@ -266,16 +305,54 @@ impl Experiment {
                 }
             }
         }
+        // A [quick] value of a grid key replaces that key's values: a list, never a scalar
+        // (a scalar would run every point of that dimension at one value while the results
+        // record the grid's).
+        let quick = if has_quick {
+            let mut q = Quick::default();
+            for (key, v) in quick_all {
+                if !grid.iter().any(|(k, _)| *k == key) {
+                    q.settings.push((key, v));
+                    continue;
+                }
+                match v {
+                    Value::Array(a) if !a.is_empty() => q.grid.push((key, a)),
+                    other => {
+                        return Err(bad(format!(
+                            "[quick] `{key}` = {other}: the [grid] varies `{key}`, so [quick] \
+                             must give a list of values that replaces the grid's (e.g. \
+                             `\"{key}\" = [{other}]`)"
+                        )));
+                    }
+                }
+            }
+            Some(q)
+        } else {
+            None
+        };
         let points = match root.remove("point") {
             None => Vec::new(),
             Some(Value::Array(a)) => a
                 .into_iter()
                 .enumerate()
                 .map(|(i, v)| match v {
-                    Value::Table(t) => {
-                        let mut out = Vec::new();
-                        flatten("", &t, &mut out);
-                        Ok(out)
+                    Value::Table(mut t) => {
+                        let quick = match t.remove("quick") {
+                            None => Vec::new(),
+                            Some(Value::Table(q)) => {
+                                flatten_section(&q, &format!("[[point]] {i} `quick`"))
+                                    .map_err(bad)?
+                            }
+                            Some(other) => {
+                                return Err(bad(format!(
+                                    "[[point]] {i}: `quick` must be a table of overrides, \
+                                     found {other}"
+                                )));
+                            }
+                        };
+                        let settings =
+                            flatten_section(&t, &format!("[[point]] {i}")).map_err(bad)?;
+                        Ok(ExplicitPoint { settings, quick })
                     }
                     other => Err(bad(format!("[[point]] {i} must be a table, found {other}"))),
                 })
@@ -288,19 +365,6 @@ impl Experiment {
                  [[point]] and [quick]"
             )));
         }
-        let grid_count = if grid.is_empty() {
-            0
-        } else {
-            grid.iter()
-                .try_fold(1usize, |n, (_, v)| n.checked_mul(v.len()))
-                .unwrap_or(usize::MAX)
-        };
-        let count = grid_count.saturating_add(points.len());
-        if count > MAX_POINTS {
-            return Err(bad(format!(
-                "{count} points, more than the {MAX_POINTS} a sweep runs (check the grid)"
-            )));
-        }
         let e = Experiment {
             path: path.to_path_buf(),
             name,
@@ -311,48 +375,102 @@ impl Experiment {
             points,
             quick,
         };
-        // Every point must assemble into a config tree (a key that clashes with a section …).
-        e.points(true)?;
-        e.points(false)?;
+        for quick in [false, true] {
+            let count = e.count(quick);
+            if count > MAX_POINTS {
+                return Err(bad(format!(
+                    "{count} points, more than the {MAX_POINTS} a sweep runs (check the grid)"
+                )));
+            }
+        }
+        // Every point must assemble into a config tree (a key that clashes with a section …),
+        // and no two points may run the same settings (a [quick] override that collapses
+        // them would fill the table with repeats under different labels).
+        for quick in [false, true] {
+            let points = e.points(quick)?;
+            let mut seen = std::collections::BTreeMap::new();
+            for p in &points {
+                if let Some(first) = seen.insert(p.config_toml.as_str(), p.index) {
+                    let scale = if quick { " with --quick" } else { "" };
+                    return Err(bad(format!(
+                        "points {first} and {} have the same settings{scale} ({}); give each \
+                         point its own values (a [[point]] may set its own `quick = {{ … }}`)",
+                        p.index,
+                        serde_json::Value::Object(p.params_json())
+                    )));
+                }
+            }
+        }
         Ok(e)
     }
 
-    /// Number of points.
-    pub fn len(&self) -> usize {
-        let grid = if self.grid.is_empty() {
+    /// Whether the experiment has a `[quick]` section.
+    pub fn has_quick(&self) -> bool {
+        self.quick.is_some()
+    }
+
+    /// The grid's keys and values, with `[quick]`'s lists if `quick`.
+    fn grid(&self, quick: bool) -> Vec<(String, Vec<Value>)> {
+        let replaced = self.quick.as_ref().filter(|_| quick).map(|q| &q.grid);
+        self.grid
+            .iter()
+            .map(|(k, v)| {
+                let v = replaced
+                    .and_then(|r| r.iter().find(|(rk, _)| rk == k))
+                    .map_or(v, |(_, rv)| rv);
+                (k.clone(), v.clone())
+            })
+            .collect()
+    }
+
+    /// Number of points at either scale (saturating).
+    fn count(&self, quick: bool) -> usize {
+        let grid = self.grid(quick);
+        let grid_count = if grid.is_empty() {
             0
         } else {
-            self.grid.iter().map(|(_, v)| v.len()).product()
+            grid.iter()
+                .try_fold(1usize, |n, (_, v)| n.checked_mul(v.len()))
+                .unwrap_or(usize::MAX)
         };
-        (grid + self.points.len()).max(1)
+        grid_count.saturating_add(self.points.len()).max(1)
+    }
+
+    /// Number of points (at full scale).
+    pub fn len(&self) -> usize {
+        self.count(false)
     }
 
     pub fn is_empty(&self) -> bool {
         false
     }
 
-    /// The points, in order; `quick` applies the `[quick]` overrides.
+    /// The points, in order; `quick` applies the `[quick]` overrides and each `[[point]]`'s
+    /// own `quick` table.
     pub fn points(&self, quick: bool) -> Result<Vec<Point>, SweepError> {
-        let mut params: Vec<Vec<(String, Value)>> = Vec::new();
-        if !self.grid.is_empty() {
-            let mut idx = vec![0usize; self.grid.len()];
+        let grid = self.grid(quick);
+        // Each point's settings and its own quick overrides.
+        type Settings = Vec<(String, Value)>;
+        let mut params: Vec<(Settings, &[(String, Value)])> = Vec::new();
+        if !grid.is_empty() {
+            let mut idx = vec![0usize; grid.len()];
             loop {
-                params.push(
-                    self.grid
-                        .iter()
+                params.push((
+                    grid.iter()
                         .zip(&idx)
                         .map(|((k, v), &i)| (k.clone(), v[i].clone()))
                         .collect(),
-                );
+                    &[],
+                ));
                 // Odometer: the last key fastest.
-                let mut d = self.grid.len();
+                let mut d = grid.len();
                 loop {
                     if d == 0 {
                         break;
                     }
                     d -= 1;
                     idx[d] += 1;
-                    if idx[d] < self.grid[d].1.len() {
+                    if idx[d] < grid[d].1.len() {
                         break;
                     }
                     idx[d] = 0;
@@ -366,24 +484,49 @@ impl Experiment {
                 }
             }
         }
-        params.extend(self.points.iter().cloned());
+        params.extend(
+            self.points
+                .iter()
+                .map(|p| (p.settings.clone(), p.quick.as_slice())),
+        );
         if params.is_empty() {
-            params.push(Vec::new());
+            params.push((Vec::new(), &[]));
         }
+        let quick_settings: &[(String, Value)] = match &self.quick {
+            Some(q) if quick => &q.settings,
+            _ => &[],
+        };
         params
             .into_iter()
             .enumerate()
-            .map(|(index, mut p)| {
-                p.sort_by(|a, b| a.0.cmp(&b.0));
+            .map(|(index, (mut p, own_quick))| {
+                let own_quick = if quick { own_quick } else { &[] };
+                let err = |e: &dyn std::fmt::Display| {
+                    SweepError::invalid(&self.path, format!("point {index}: {e}"))
+                };
                 let mut l = Layers::new();
-                let quick_layer: &[(String, Value)] = if quick { &self.quick } else { &[] };
-                for (k, v) in self.base.iter().chain(&p).chain(quick_layer) {
-                    l.set_value(k, v.clone()).map_err(|e| {
-                        SweepError::invalid(&self.path, format!("point {index}: {e}"))
-                    })?;
+                for (k, v) in self
+                    .base
+                    .iter()
+                    .chain(&p)
+                    .chain(quick_settings)
+                    .chain(own_quick)
+                {
+                    l.set_value(k, v.clone()).map_err(|e| err(&e))?;
                 }
-                let config_toml = toml::to_string(l.table())
-                    .map_err(|e| SweepError::invalid(&self.path, format!("point {index}: {e}")))?;
+                // The recorded parameters are the values the point runs with.
+                for (k, v) in own_quick {
+                    if !p.iter().any(|(pk, _)| pk == k) {
+                        p.push((k.clone(), v.clone()));
+                    }
+                }
+                for (k, v) in &mut p {
+                    if let Some(run) = l.get(k) {
+                        *v = run.clone();
+                    }
+                }
+                p.sort_by(|a, b| a.0.cmp(&b.0));
+                let config_toml = toml::to_string(l.table()).map_err(|e| err(&e))?;
                 Ok(Point {
                     index,
                     params: p,
@@ -479,6 +622,138 @@ mod tests {
         ] {
             let e = parse(text).unwrap_err().to_string();
             assert!(e.contains(needle), "{text}: {e}");
+        }
+    }
+
+    #[test]
+    fn quick_lists_replace_grid_values_and_params_are_what_runs() {
+        let e = parse(
+            r#"
+            name = "t"
+            command = "simulate"
+            [base]
+            "workload.width" = 128
+            [grid]
+            "arch.trax.tms" = [32, 128]
+            "scene.name" = ["sibenik", "conference"]
+            [[point]]
+            "arch.trax.tms" = 8
+            "workload.width" = 1920
+            quick = { "workload.width" = 96, "workload.height" = 54 }
+            [quick]
+            "arch.trax.tms" = [2, 4, 8]
+            "workload.width" = 24
+            "#,
+        )
+        .unwrap();
+        assert!(e.has_quick());
+        let full = e.points(false).unwrap();
+        assert_eq!(full.len(), 5);
+        assert_eq!(full[0].params[0], ("arch.trax.tms".into(), 32.into()));
+        assert_eq!(full[4].params[1], ("workload.width".into(), 1920.into()));
+        let quick = e.points(true).unwrap();
+        assert_eq!(quick.len(), 7);
+        for p in &quick {
+            // Every recorded parameter is the value in the config the point runs with.
+            let cfg: Table = p.config_toml.parse().unwrap();
+            let mut layers = Layers::new();
+            layers.merge_table(cfg, "point");
+            for (k, v) in &p.params {
+                assert_eq!(layers.get(k), Some(v), "point {}: {k}", p.index);
+            }
+        }
+        assert_eq!(quick[2].params[0], ("arch.trax.tms".into(), 4.into()));
+        let cfg: Table = quick[2].config_toml.parse().unwrap();
+        assert_eq!(cfg["arch"]["trax"]["tms"].as_integer(), Some(4));
+        assert_eq!(cfg["workload"]["width"].as_integer(), Some(24));
+        // The explicit point: [quick]'s scalars, then its own overrides, recorded.
+        let last = &quick[6];
+        assert_eq!(
+            last.params,
+            vec![
+                ("arch.trax.tms".into(), 8.into()),
+                ("workload.height".into(), 54.into()),
+                ("workload.width".into(), 96.into()),
+            ]
+        );
+    }
+
+    #[test]
+    fn quick_must_not_collapse_or_silently_override_the_grid() {
+        // A scalar for a grid key would run every point at one value.
+        let err = parse(
+            "name = \"t\"\ncommand = \"simulate\"\n[grid]\n\"arch.trax.tms\" = [32, 128]\n\
+             [quick]\n\"arch.trax.tms\" = 4\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("`arch.trax.tms`") && err.contains("list") && err.contains("[quick]"),
+            "{err}"
+        );
+        // Points that run the same settings are refused, naming both.
+        let err = parse(
+            "name = \"t\"\ncommand = \"simulate\"\n[base]\n\"workload.width\" = 1024\n\
+             [[point]]\n\"scene.name\" = \"a\"\n\
+             [[point]]\n\"scene.name\" = \"a\"\n\"workload.width\" = 1920\n\
+             [quick]\n\"workload.width\" = 64\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("points 0 and 1") && err.contains("--quick"),
+            "{err}"
+        );
+        let err =
+            parse("name = \"t\"\ncommand = \"simulate\"\n[grid]\n\"workload.width\" = [8, 8]\n")
+                .unwrap_err()
+                .to_string();
+        assert!(
+            err.contains("points 0 and 1 have the same settings"),
+            "{err}"
+        );
+        let err = parse("name = \"t\"\ncommand = \"simulate\"\n[[point]]\nquick = 3\n")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("`quick` must be a table"), "{err}");
+        let e = parse("name = \"t\"\ncommand = \"simulate\"\n").unwrap();
+        assert!(!e.has_quick());
+    }
+
+    #[test]
+    fn a_key_given_twice_in_a_section_is_an_error() {
+        for (text, section) in [
+            (
+                "[base]\n\"workload.width\" = 8\nworkload = { width = 16 }\n",
+                "[base]",
+            ),
+            (
+                "[grid]\n\"workload.width\" = [8, 16]\n[grid.workload]\nwidth = [4]\n",
+                "[grid]",
+            ),
+            (
+                "[grid.workload]\nwidth = [4]\n[grid]\n\"workload.width\" = [8, 16]\n",
+                "[grid]",
+            ),
+            (
+                "[quick]\n\"workload.width\" = 8\nworkload = { width = 16 }\n",
+                "[quick]",
+            ),
+            (
+                "[[point]]\n\"workload.width\" = 8\nworkload = { width = 16 }\n",
+                "[[point]] 0",
+            ),
+            (
+                "[[point]]\nquick = { \"workload.width\" = 8, workload = { width = 16 } }\n",
+                "[[point]] 0 `quick`",
+            ),
+        ] {
+            let text = format!("name = \"t\"\ncommand = \"simulate\"\n{text}");
+            let err = parse(&text).unwrap_err().to_string();
+            assert!(
+                err.contains("`workload.width` is given twice in") && err.contains(section),
+                "{text}: {err}"
+            );
         }
     }
 }

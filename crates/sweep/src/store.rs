@@ -4,7 +4,8 @@
 //! results/NAME/
 //!   points/p00042.tmp/     a point being run (the command writes its outputs here)
 //!   points/p00042/         a finished point: the outputs and point.json, renamed into place
-//!   points/p00042.failed/  a point whose command failed (stderr.txt says why); retried next run
+//!   points/p00042.failed/  a point whose command failed (exit.txt: its exit status or signal;
+//!                          stderr.txt: its error output); retried next run
 //!   results.csv, results.jsonl, summary.json   the merged table
 //! ```
 //!
@@ -13,12 +14,43 @@
 //! either holds a complete run or does not exist. A killed sweep leaves at most `.tmp`
 //! directories, which the next run removes and redoes. A finished point is skipped only if its
 //! record matches the point exactly (command, arguments, settings); a directory holding another
-//! experiment's point is an error, never silently reused or overwritten.
+//! experiment's point is an error, never silently reused or overwritten. The record also names
+//! the build that ran the point ([`Build`]); a point finished by another build is still
+//! finished (the sweep warns).
 
 use crate::SweepError;
 use crate::experiment::{Experiment, Point};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// The simulator build that ran a point.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Build {
+    /// The rtsim version (`CARGO_PKG_VERSION`).
+    pub version: String,
+    /// `git rev-parse --short=12 HEAD` when it was built, or "unknown".
+    pub commit: String,
+}
+
+impl Build {
+    /// The running build.
+    pub fn current() -> Build {
+        Build {
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            commit: env!("RTSIM_GIT_COMMIT").to_string(),
+        }
+    }
+}
+
+impl std::fmt::Display for Build {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.version.is_empty() {
+            // A record written before builds were recorded.
+            return f.write_str("an unrecorded build");
+        }
+        write!(f, "rtsim {} ({})", self.version, self.commit)
+    }
+}
 
 /// What identifies a finished point.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -31,6 +63,9 @@ pub struct PointRecord {
     pub params: serde_json::Map<String, serde_json::Value>,
     /// The config file the command read.
     pub config: String,
+    /// The build that ran it (not part of the point's identity; empty in older records).
+    #[serde(default)]
+    pub build: Build,
 }
 
 impl PointRecord {
@@ -43,8 +78,68 @@ impl PointRecord {
             quick,
             params: p.params_json(),
             config: p.config_toml.clone(),
+            build: Build::current(),
         }
     }
+
+    /// Whether two records are of the same point (whatever build ran them).
+    pub fn same_point(&self, other: &PointRecord) -> bool {
+        PointRecord {
+            build: Build::default(),
+            ..self.clone()
+        } == PointRecord {
+            build: Build::default(),
+            ..other.clone()
+        }
+    }
+}
+
+/// How a process ended, for a failed point's record: "exit status 2", "killed by signal 9
+/// (SIGKILL)".
+pub fn describe_exit(status: std::process::ExitStatus) -> String {
+    if let Some(code) = status.code() {
+        return format!("exit status {code}");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if let Some(sig) = status.signal() {
+            let name = signal_name(sig).map_or(String::new(), |n| format!(" ({n})"));
+            let core = if status.core_dumped() {
+                ", core dumped"
+            } else {
+                ""
+            };
+            return format!("killed by signal {sig}{name}{core}");
+        }
+    }
+    format!("ended without an exit status ({status})")
+}
+
+/// The name of a signal whose number POSIX (or, for the rest, Linux) fixes.
+#[cfg(unix)]
+fn signal_name(sig: i32) -> Option<&'static str> {
+    Some(match sig {
+        1 => "SIGHUP",
+        2 => "SIGINT",
+        3 => "SIGQUIT",
+        4 => "SIGILL",
+        5 => "SIGTRAP",
+        6 => "SIGABRT",
+        8 => "SIGFPE",
+        9 => "SIGKILL",
+        11 => "SIGSEGV",
+        13 => "SIGPIPE",
+        14 => "SIGALRM",
+        15 => "SIGTERM",
+        #[cfg(target_os = "linux")]
+        7 => "SIGBUS",
+        #[cfg(target_os = "linux")]
+        10 => "SIGUSR1",
+        #[cfg(target_os = "linux")]
+        12 => "SIGUSR2",
+        _ => return None,
+    })
 }
 
 /// Where a point stands.
@@ -62,6 +157,8 @@ pub struct Store {
 
 /// The name of the record file in a finished point's directory.
 pub const RECORD: &str = "point.json";
+/// The file in a failed point's directory saying how its command ended.
+pub const EXIT: &str = "exit.txt";
 /// The config file a point's command reads.
 pub const CONFIG: &str = "point-config.toml";
 
@@ -104,18 +201,10 @@ impl Store {
     /// point.
     pub fn status(&self, record: &PointRecord) -> Result<Status, SweepError> {
         let dir = self.point_dir(record.index);
-        if !dir.exists() {
+        let Some(found) = self.record(record.index)? else {
             return Ok(Status::Todo);
-        }
-        let path = dir.join(RECORD);
-        let text =
-            std::fs::read_to_string(&path).map_err(|e| rtsim_core::FileError::io(&path, e))?;
-        let found: PointRecord =
-            serde_json::from_str(&text).map_err(|source| SweepError::Json {
-                path: path.clone(),
-                source,
-            })?;
-        if &found == record {
+        };
+        if found.same_point(record) {
             Ok(Status::Done)
         } else {
             Err(SweepError::invalid(
@@ -125,6 +214,23 @@ impl Store {
                  with --out, or remove it",
             ))
         }
+    }
+
+    /// The record of finished point `index`, if there is one.
+    pub fn record(&self, index: usize) -> Result<Option<PointRecord>, SweepError> {
+        let dir = self.point_dir(index);
+        if !dir.exists() {
+            return Ok(None);
+        }
+        let path = dir.join(RECORD);
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| rtsim_core::FileError::io(&path, e))?;
+        let found: PointRecord =
+            serde_json::from_str(&text).map_err(|source| SweepError::Json {
+                path: path.clone(),
+                source,
+            })?;
+        Ok(Some(found))
     }
 
     /// Remove the leftovers of killed runs (`.tmp` directories); returns how many.
@@ -173,11 +279,17 @@ impl Store {
         std::fs::rename(&staging, &done).map_err(|e| Self::io(&done, e))
     }
 
-    /// The point's command failed: keep its leftovers (and `stderr`) for inspection.
-    pub fn fail(&self, index: usize, stderr: &[u8]) -> Result<PathBuf, SweepError> {
+    /// The point's command failed: keep its leftovers, why it ended (`exit`, e.g. "exit status
+    /// 2" or "killed by signal 9 (SIGKILL)") and its `stderr` for inspection.
+    pub fn fail(&self, index: usize, exit: &str, stderr: &[u8]) -> Result<PathBuf, SweepError> {
         let staging = self.staging_dir(index);
-        let path = staging.join("stderr.txt");
-        rtsim_core::output::write_atomic(&path, stderr).map_err(|e| Self::io(&path, e))?;
+        for (name, bytes) in [
+            (EXIT, format!("{exit}\n").as_bytes()),
+            ("stderr.txt", stderr),
+        ] {
+            let path = staging.join(name);
+            rtsim_core::output::write_atomic(&path, bytes).map_err(|e| Self::io(&path, e))?;
+        }
         let failed = self.failed_dir(index);
         std::fs::rename(&staging, &failed).map_err(|e| Self::io(&failed, e))?;
         Ok(failed)
@@ -221,10 +333,60 @@ mod tests {
         // A failed point keeps its stderr and is retried.
         let p0 = PointRecord::of(&e, &e.points(false).unwrap()[0], false);
         store.begin(&p0).unwrap();
-        let failed = store.fail(0, b"boom").unwrap();
+        let failed = store.fail(0, "exit status 2", b"boom").unwrap();
         assert_eq!(std::fs::read(failed.join("stderr.txt")).unwrap(), b"boom");
+        assert_eq!(
+            std::fs::read_to_string(failed.join(EXIT)).unwrap(),
+            "exit status 2\n"
+        );
         assert_eq!(store.status(&p0).unwrap(), Status::Todo);
         store.begin(&p0).unwrap();
         assert!(!failed.exists());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn exit_statuses_and_signals_are_described() {
+        use std::os::unix::process::ExitStatusExt;
+        use std::process::ExitStatus;
+        // Wait statuses: an exit code in bits 8..16, a signal in the low 7 bits.
+        assert_eq!(describe_exit(ExitStatus::from_raw(2 << 8)), "exit status 2");
+        assert_eq!(
+            describe_exit(ExitStatus::from_raw(9)),
+            "killed by signal 9 (SIGKILL)"
+        );
+        assert_eq!(
+            describe_exit(ExitStatus::from_raw(15)),
+            "killed by signal 15 (SIGTERM)"
+        );
+        assert_eq!(
+            describe_exit(ExitStatus::from_raw(11 | 0x80)),
+            "killed by signal 11 (SIGSEGV), core dumped"
+        );
+    }
+
+    #[test]
+    fn a_record_names_its_build_and_another_build_still_counts_as_done() {
+        let tmp = tempfile::tempdir().unwrap();
+        let store = Store::new(tmp.path());
+        let e = exp();
+        let rec = PointRecord::of(&e, &e.points(false).unwrap()[0], false);
+        assert_eq!(rec.build.version, env!("CARGO_PKG_VERSION"));
+        assert!(!rec.build.commit.is_empty());
+        let mut old = rec.clone();
+        old.build.commit = "0123456789ab".into();
+        store.begin(&old).unwrap();
+        store.finish(&old).unwrap();
+        let text = std::fs::read_to_string(store.point_dir(0).join(RECORD)).unwrap();
+        assert!(text.contains("\"commit\": \"0123456789ab\""), "{text}");
+        assert_eq!(store.status(&rec).unwrap(), Status::Done);
+        assert_eq!(store.record(0).unwrap().unwrap().build, old.build);
+        // A record written before builds were recorded still reads, as an unrecorded build.
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v.as_object_mut().unwrap().remove("build");
+        std::fs::write(store.point_dir(0).join(RECORD), v.to_string()).unwrap();
+        assert_eq!(store.status(&rec).unwrap(), Status::Done);
+        let found = store.record(0).unwrap().unwrap().build;
+        assert_eq!(found.to_string(), "an unrecorded build");
     }
 }
