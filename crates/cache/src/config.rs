@@ -193,6 +193,53 @@ impl CacheLevel {
     }
 }
 
+/// Most host memory a chip's cache models may take for their per-line state (tags,
+/// replacement stamps, dirty flags): assumed, a quarter of the reference machine's 24 GB, so
+/// that a mistyped size is an error naming the key, not an allocation failure or hours of
+/// swapping.
+pub const STATE_LIMIT_BYTES: u64 = 6 << 30;
+/// Host bytes of state per cache line, at most: an 8-byte tag, an 8-byte replacement stamp
+/// and a dirty flag ([`crate::Cache`]).
+pub const STATE_BYTES_PER_LINE: u64 = 17;
+
+/// Refuse a chip whose caches' simulated state would not fit the host: `caches` lists each
+/// kind of cache as (its key, its level, how many the chip has). The error names the key of
+/// the kind that takes the most.
+pub fn check_state_memory(caches: &[(&str, &CacheLevel, u64)]) -> Result<(), ConfigError> {
+    let bytes = |c: &CacheLevel, n: u64| {
+        (c.size_bytes / u64::from(c.line_bytes.max(1)))
+            .saturating_mul(n)
+            .saturating_mul(STATE_BYTES_PER_LINE)
+    };
+    let total = caches
+        .iter()
+        .fold(0u64, |t, &(_, c, n)| t.saturating_add(bytes(c, n)));
+    if total <= STATE_LIMIT_BYTES {
+        return Ok(());
+    }
+    let &(key, worst, _) = caches
+        .iter()
+        .max_by_key(|&&(_, c, n)| bytes(c, n))
+        .expect("a total above the limit comes from some cache");
+    let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    let counts: Vec<String> = caches
+        .iter()
+        .map(|&(k, _, n)| format!("{n} × {}", k.trim_end_matches(".size_bytes")))
+        .collect();
+    Err(ConfigError::key(
+        key,
+        format!(
+            "= {}: the chip's caches ({}) would need {:.1} GiB of host memory for their line \
+             state (about {STATE_BYTES_PER_LINE} bytes per line); at most {:.0} GiB: make the \
+             caches, or the number of them, smaller",
+            worst.size_bytes,
+            counts.join(", "),
+            gib(total),
+            gib(STATE_LIMIT_BYTES)
+        ),
+    ))
+}
+
 /// A two-level hierarchy: `l1_count` identical L1s, their L2s, then memory.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

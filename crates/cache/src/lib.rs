@@ -31,7 +31,7 @@ pub mod topology;
 pub mod trace;
 
 pub use cache::{Access, Cache, Evicted};
-pub use config::{CacheConfig, CacheLevel, Replacement, WritePolicy};
+pub use config::{CacheConfig, CacheLevel, Replacement, WritePolicy, check_state_memory};
 pub use functional::{FunctionalHierarchy, MemoryCounts};
 pub use memory::FixedLatency;
 pub use stats::CacheStats;

@@ -385,6 +385,19 @@ impl Validate for SgrtConfig {
         self.ist.l1.validate_at(&k("ist.l1"))?;
         self.l2.validate_at(&k("l2"))?;
         self.srp.dcache.validate_at(&k("srp.dcache"))?;
+        // Per core: a TRV L1 per traversal unit, the IST's L1, the SRP's data cache (counted
+        // even with the shader off) and the core's L2 (`chip.rs`, `topology`).
+        let cores = u64::from(self.cores);
+        rtsim_cache::check_state_memory(&[
+            (
+                &k("trv.l1.size_bytes"),
+                &self.trv.l1,
+                cores * u64::from(self.trvs),
+            ),
+            (&k("ist.l1.size_bytes"), &self.ist.l1, cores),
+            (&k("srp.dcache.size_bytes"), &self.srp.dcache, cores),
+            (&k("l2.size_bytes"), &self.l2, cores),
+        ])?;
         if self.trv.l1.line_bytes != self.l2.line_bytes {
             return Err(ConfigError::key(
                 &k("trv.l1.line_bytes"),
@@ -441,6 +454,22 @@ mod tests {
         c.ist.l1.size_bytes = 1000;
         let e = c.validate().unwrap_err().to_string();
         assert!(e.contains("arch.sgrt.ist.l1.size_bytes"), "{e}");
+    }
+
+    #[test]
+    fn caches_too_large_for_the_host_name_the_key() {
+        // 2^40 bytes is a valid cache size on its own; sixteen TRV L1s of it are not.
+        let mut c = SgrtConfig::default();
+        c.trv.l1.size_bytes = 1 << 40;
+        let e = c.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("arch.sgrt.trv.l1.size_bytes") && e.contains("GiB of host memory"),
+            "{e}"
+        );
+        let mut c = SgrtConfig::default();
+        c.l2.size_bytes = 1 << 38;
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("arch.sgrt.l2.size_bytes"), "{e}");
     }
 
     #[test]

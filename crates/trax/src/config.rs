@@ -286,6 +286,7 @@ impl Validate for TraxConfig {
         check_range(&key("l1s_per_l2"), self.l1s_per_l2, 0, self.tms)?;
         self.l1.validate_at(&key("l1"))?;
         self.l2.validate_at(&key("l2"))?;
+        self.check_cache_state_memory()?;
         if self.l1.line_bytes != self.l2.line_bytes {
             return Err(ConfigError::key(
                 &key("l1.line_bytes"),
@@ -319,6 +320,23 @@ impl Validate for TraxConfig {
 }
 
 impl TraxConfig {
+    /// The number of L2s: one per `l1s_per_l2` TMs (the last group may be smaller), or one.
+    fn l2_count(&self) -> u64 {
+        match self.l1s_per_l2 {
+            0 => 1,
+            g => u64::from(self.tms.div_ceil(g)),
+        }
+    }
+
+    /// Refuse caches whose simulated state would not fit the host: every TM's L1 and every
+    /// L2 keeps state per line.
+    fn check_cache_state_memory(&self) -> Result<(), ConfigError> {
+        rtsim_cache::check_state_memory(&[
+            (&key("l1.size_bytes"), &self.l1, u64::from(self.tms)),
+            (&key("l2.size_bytes"), &self.l2, self.l2_count()),
+        ])
+    }
+
     /// Checks against the rest of the run: the program is the `stack` traversal with
     /// Möller–Trumbore (issue 8 §2), and the stack must fit the local memory.
     pub fn validate_run(&self, trace: &TraceConfig) -> Result<(), ConfigError> {
@@ -420,6 +438,21 @@ mod tests {
         assert!(e.contains("arch.trax.icache_banks"), "{e}");
         let e = err(|c| c.icaches_per_tm = 33);
         assert!(e.contains("arch.trax.icaches_per_tm"), "{e}");
+        // 2^40 bytes is a valid cache size, but 128 of them do not fit the host: an error
+        // naming the key, not an allocation failure (nor 8 GB L1s that swap for hours).
+        for size in [1u64 << 40, 8 << 30] {
+            let e = err(|c| c.l1.size_bytes = size);
+            assert!(
+                e.contains("arch.trax.l1.size_bytes") && e.contains("GiB of host memory"),
+                "{e}"
+            );
+        }
+        let e = err(|c| c.l2.size_bytes = 1 << 40);
+        assert!(e.contains("arch.trax.l2.size_bytes"), "{e}");
+        // Paper-scale sizes pass: Figure 5's 16 MB L2.
+        let mut c = TraxConfig::default();
+        c.l2.size_bytes = 16 << 20;
+        c.validate().unwrap();
         let e = err(|c| c.l1s_per_l2 = 129);
         assert!(e.contains("arch.trax.l1s_per_l2"), "{e}");
         let e = err(|c| c.local_memory_bytes = 100);
