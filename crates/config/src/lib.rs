@@ -256,7 +256,7 @@ impl Layers {
         if matches!(e, ConfigError::Located { .. }) {
             return e;
         }
-        for src in self.sources.iter().rev() {
+        for (i, src) in self.sources.iter().enumerate().rev() {
             let origin = match src {
                 Source::Text { origin, text } => {
                     key_line(text, &key).map(|line| format!("{origin}:{line}"))
@@ -268,7 +268,14 @@ impl Layers {
                     table,
                 } => table_has(table, prefix, &key).then(|| origin.clone()),
             };
-            if let Some(origin) = origin {
+            if let Some(mut origin) = origin {
+                // A value from a lower layer (the defaults, a preset) is often wrong only
+                // because of a later assignment beside it (`--set arch.trax.l1.ways=3` makes
+                // the default size invalid): name those too.
+                let beside = self.later_assignments_beside(i + 1, &key);
+                if !beside.is_empty() {
+                    origin = format!("{origin}, with {}", beside.join(", "));
+                }
                 return ConfigError::Located {
                     origin,
                     source: Box::new(e),
@@ -276,6 +283,25 @@ impl Layers {
             }
         }
         e
+    }
+
+    /// The origins of assignments (`--set`, flags) from source `from` on that set a key in the
+    /// same section as `key` (its siblings or their children).
+    fn later_assignments_beside(&self, from: usize, key: &str) -> Vec<String> {
+        let Some((section, _)) = key.rsplit_once('.') else {
+            return Vec::new();
+        };
+        let prefix = format!("{section}.");
+        let mut out: Vec<String> = Vec::new();
+        for src in &self.sources[from.min(self.sources.len())..] {
+            if let Source::Assignment { origin, key: k } = src
+                && k.starts_with(&prefix)
+                && !out.contains(origin)
+            {
+                out.push(origin.clone());
+            }
+        }
+        out
     }
 
     /// Merge a table under a key prefix (`prefix = "dram"` puts `{a = 1}` at `dram.a`).
@@ -766,6 +792,31 @@ mod tests {
             key_line("a = 1\n[[m]]\nx = 1\n[[m]]\nx = 2\n", "m[1].x"),
             Some(5)
         );
+    }
+
+    #[test]
+    fn a_default_made_invalid_by_an_assignment_beside_it_names_both() {
+        // `inner.bins` comes from the defaults, but `--set inner.cost=…` is what the user
+        // changed in that section: the error names the assignment too.
+        let mut l = Layers::new();
+        l.merge_value(&Root::default(), "defaults").unwrap();
+        l.set("inner.cost=2").unwrap();
+        l.set("name=\"x\"").unwrap();
+        let e = l
+            .locate(ConfigError::range("inner.bins", 16, "a multiple of cost"))
+            .to_string();
+        assert!(
+            e.starts_with("defaults, with --set inner.cost=2: config key `inner.bins`"),
+            "{e}"
+        );
+        // Without an assignment in the section, the origin alone.
+        let mut l = Layers::new();
+        l.merge_value(&Root::default(), "defaults").unwrap();
+        l.set("name=\"x\"").unwrap();
+        let e = l
+            .locate(ConfigError::range("inner.bins", 16, "x"))
+            .to_string();
+        assert!(e.starts_with("defaults: config key"), "{e}");
     }
 
     #[test]
