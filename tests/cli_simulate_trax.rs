@@ -157,3 +157,60 @@ fn bench_sim_reports_rates_and_peak_memory() {
     let e = fails(rtsim().args(["bench-sim", "--arch", "functional"]));
     assert!(e.contains("trax-baseline"), "{e}");
 }
+
+/// RGB pixels of a PNG the commands wrote.
+fn rgb(path: &Path) -> (u32, Vec<u8>) {
+    let mut r = png::Decoder::new(std::io::BufReader::new(fs::File::open(path).unwrap()))
+        .read_info()
+        .unwrap();
+    let mut buf = vec![0; r.output_buffer_size().unwrap()];
+    let info = r.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    buf.truncate(info.buffer_size());
+    (info.width, buf)
+}
+
+#[test]
+fn a_window_is_exposed_for_its_own_pixels() {
+    // With a fixed exposure a window's pixels are `render`'s. With the automatic one the
+    // window is exposed for its own pixels: the black surround must not set the key (it blew
+    // the window out: 254 against `render`'s 86).
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, cmd: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        ok(rtsim()
+            .args([cmd, "--scene", "cornell", "--width", "24", "--height", "16"])
+            .args(extra)
+            .arg("--out")
+            .arg(&out));
+        rgb(&out.join("render.png"))
+    };
+    let inside = |(w, px): (u32, Vec<u8>)| -> Vec<u8> {
+        let mut v = Vec::new();
+        for y in 4..12 {
+            let row = (y * w * 3) as usize;
+            v.extend_from_slice(&px[row + 8 * 3..row + 20 * 3]);
+        }
+        v
+    };
+    let window = [
+        "--arch",
+        "trax-baseline",
+        "--set",
+        "arch.trax.tms=2",
+        "--window",
+        "8,4,20,12",
+    ];
+    let fixed = ["--set", "output.exposure=0.5"];
+    let sim = run("sim-fixed", "simulate", &[&window[..], &fixed[..]].concat());
+    let full = run("render-fixed", "render", &fixed);
+    assert_eq!(inside(sim), inside(full));
+    let auto = inside(run("sim-auto", "simulate", &window));
+    let mean = auto.iter().map(|&b| f64::from(b)).sum::<f64>() / auto.len() as f64;
+    let white = auto.iter().filter(|&&b| b == 255).count();
+    assert!(
+        (50.0..200.0).contains(&mean) && white * 10 < auto.len(),
+        "window mean {mean:.1}, {white} of {} values saturated",
+        auto.len()
+    );
+}

@@ -42,9 +42,11 @@ pub struct FrameArgs {
     /// Workload: primary, ao, diffuse, path, specular.
     #[arg(long)]
     pub workload: Option<String>,
-    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
+    /// Image width in pixels, 1..=16384 (`workload.width`).
+    #[arg(long, value_parser = crate::cli::image_size_arg, allow_negative_numbers = true)]
     pub width: Option<u32>,
-    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
+    /// Image height in pixels, 1..=16384 (`workload.height`).
+    #[arg(long, value_parser = crate::cli::image_size_arg, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Samples per pixel.
     #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
@@ -265,7 +267,14 @@ fn write_outputs(s: &Session, out: &SimOutput, mut files: FrameOutputs) -> Resul
     let tone = match (cfg.output.exposure, params.kind) {
         (Some(exposure), _) => ToneMap::Linear { exposure },
         (None, WorkloadKind::Ao) => ToneMap::Linear { exposure: 1.0 },
-        (None, _) => ToneMap::Auto,
+        // A window is exposed for its own pixels: the unsimulated black around it is not
+        // part of the picture (with `output.exposure` set, its pixels equal `rtsim render`'s).
+        (None, _) => match cfg.sim.window {
+            Some([x0, y0, x1, y1]) => ToneMap::AutoFrom {
+                log_average: frame.log_average_luminance_in(x0..x1, y0..y1),
+            },
+            None => ToneMap::Auto,
+        },
     };
     let image = frame.to_srgb8(tone);
     crate::commands::warn_if_black(&image, params.kind, &s.resolved);

@@ -57,11 +57,17 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         seconds: r.seconds,
         cpu_seconds: r.cpu_seconds,
     };
-    trax::output(s, ran, extra, |run, report| {
+    let mut out = trax::output(s, ran, extra, |run, report| {
         Box::new(StrataStats {
             run,
             trax: report,
             strata,
         })
-    })
+    })?;
+    // A path's rays run on many TPs, one stream-memory pop at a time, so no TP's cycles
+    // belong to one pixel: the heat map shows the pixel's traversal work instead (nodes
+    // visited by all its rays, as `rtsim render`'s), not an empty cycle map.
+    out.heat = out.pixels.iter().map(|p| p.nodes_visited as u64).collect();
+    out.heat_label = "nodes visited (no per-pixel cycles: a path's rays run on many TPs)";
+    Ok(out)
 }
