@@ -35,7 +35,9 @@ pub enum Command {
     Dram(crate::commands::dram::DramArgs),
     /// Replay an address trace through a cache hierarchy, functionally or timed (docs/CACHES.md).
     Cache(crate::commands::cache::CacheArgs),
-    /// Run the same frame on several SGRT presets and print speed and step ratios (Table 4).
+    /// Run the same frame on several presets of one chip, ours beside the papers': SGRT
+    /// presets (speed and step ratios, SGRT Table 4) or trax-baseline and strata (STRaTA
+    /// Tables 1 and 3, with whether each change goes the paper's way).
     Compare(crate::commands::compare::CompareArgs),
     /// Draw the papers' tables and figures from a sweep's results, beside the published
     /// values: report.html and every figure as SVG and PNG (docs/EXPERIMENTS.md).
@@ -73,9 +75,11 @@ pub struct RenderArgs {
     /// Workload: primary, ao, diffuse, path, specular.
     #[arg(long)]
     pub workload: Option<String>,
-    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
+    /// Image width in pixels, 1..=16384 (`workload.width`).
+    #[arg(long, value_parser = crate::cli::image_size_arg, allow_negative_numbers = true)]
     pub width: Option<u32>,
-    #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
+    /// Image height in pixels, 1..=16384 (`workload.height`).
+    #[arg(long, value_parser = crate::cli::image_size_arg, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Samples per pixel.
     #[arg(long, value_parser = crate::cli::u32_arg, allow_negative_numbers = true)]
@@ -162,6 +166,17 @@ pub fn u32_arg(s: &str) -> Result<u32, String> {
     unsigned(s, u32::MAX.into()).map(|v| v as u32)
 }
 
+/// Value parser for image widths and heights: the range `workload.width` and `.height`
+/// allow (`rtsim_trace::config`).
+pub fn image_size_arg(s: &str) -> Result<u32, String> {
+    const MAX: u64 = 16384;
+    match unsigned(s, MAX) {
+        Ok(0) => Err(format!("must be at least 1 (allowed 1..={MAX})")),
+        Ok(v) => Ok(v as u32),
+        Err(e) => Err(e.replace("allowed 0..=", "allowed 1..=")),
+    }
+}
+
 /// Value parser for `u64` flags.
 pub fn u64_arg(s: &str) -> Result<u64, String> {
     unsigned(s, u64::MAX)
@@ -186,5 +201,14 @@ mod tests {
                 .contains("0..=4294967295")
         );
         assert!(u64_arg("x").unwrap_err().contains("not a whole number"));
+    }
+
+    #[test]
+    fn image_sizes_state_their_own_range() {
+        assert_eq!(image_size_arg("33"), Ok(33));
+        for bad in ["-5", "0", "16385", "4294967296", "x"] {
+            let e = image_size_arg(bad).unwrap_err();
+            assert!(e.contains("allowed 1..=16384"), "{bad}: {e}");
+        }
     }
 }

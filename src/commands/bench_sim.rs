@@ -34,8 +34,8 @@ pub struct BenchSimArgs {
     #[arg(long)]
     pub full: bool,
     /// With `--arch strata`: also run the TRaX baseline with the same flags, both on one host
-    /// thread, and print each chip's host time per simulated instruction (issue 10 §6 asks
-    /// STRaTA for parity with the baseline).
+    /// thread, and print each chip's host time per simulated instruction and per simulated
+    /// cycle, and their ratios. (`--arch` here: trax-baseline, the default, or strata.)
     #[arg(long)]
     pub against_baseline: bool,
 }
@@ -53,6 +53,13 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
             "--against-baseline compares STRaTA with the baseline: it needs --arch strata"
         );
     }
+    if let Some(out) = &a.frame.out {
+        anyhow::bail!(
+            "bench-sim writes no files (it prints its rates): drop --out {} (use `rtsim \
+             simulate` for a run's outputs)",
+            out.display()
+        );
+    }
     a.scene.scene.get_or_insert_with(|| "sibenik".into());
     if !args.full {
         a.frame.cycle_limit.get_or_insert(DEFAULT_CYCLES);
@@ -63,7 +70,7 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
         b.scene.threads = Some(1);
         b
     });
-    // The benchmark writes nothing (an `--out` is accepted and ignored).
+    // The benchmark writes nothing (`--out` is refused above).
     let flags = simulate::flags(a)?;
     let load_before = load_average();
     let s = session::open(&a.scene, &flags, false)?;

@@ -171,6 +171,14 @@ pub(crate) fn warn_if_black(srgb: &[u8], kind: rtsim_trace::WorkloadKind, r: &Re
     if kind == rtsim_trace::WorkloadKind::Ao || srgb.iter().any(|&b| b != 0) {
         return;
     }
+    if let Some(limit) = r.config.sim.cycle_limit {
+        eprintln!(
+            "warning: the image is entirely black: with `sim.cycle_limit` = {limit}, the frame \
+             probably stopped before any pixel finished (raise or unset the limit; stats.json \
+             says whether the frame completed)"
+        );
+        return;
+    }
     let l = r.scene.light.position;
     eprintln!(
         "warning: the image is entirely black: no light reaches a surface the camera sees \

@@ -166,7 +166,7 @@ impl TraxReport {
         let mut v = Vec::new();
         let c = &self.chip;
         v.push(format!(
-            "chip             TRaX baseline: {} TMs × {} TPs = {} TPs at {} MHz, {} L2 ({} engine)",
+            "chip             TRaX chip: {} TMs × {} TPs = {} TPs at {} MHz, {} L2 ({} engine)",
             c.tms, c.tps_per_tm, c.tps, c.clock_mhz, c.l2s, c.engine
         ));
         v.push(format!(
