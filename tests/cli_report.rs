@@ -179,6 +179,21 @@ fn bad_input_is_an_error_naming_the_file_and_column() {
     let e = fails(rtsim().arg("report").arg(&empty));
     assert!(e.contains("results.jsonl") && e.contains("empty"), "{e}");
 
+    // A table with a header and no finished point, or cut off inside its header: an error
+    // (it reported "0 finished points" and exited 0).
+    for (name, text) in [
+        ("header-only.csv", "point,arch.preset,scene.name\n"),
+        ("cut.csv", "point,arch.pre"),
+    ] {
+        let path = tmp.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let e = fails(rtsim().arg("report").arg(&path));
+        assert!(
+            e.contains(name) && e.contains("no point has finished"),
+            "{e}"
+        );
+    }
+
     let no_arch = tmp.path().join("no-arch.csv");
     std::fs::write(&no_arch, "point,scene.name\n0,sibenik\n").unwrap();
     let e = fails(rtsim().arg("report").arg(&no_arch));

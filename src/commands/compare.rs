@@ -1,9 +1,13 @@
-//! `rtsim compare --arch A --arch B …`: the same frame on several SGRT presets (Table 4:
-//! `--arch sgrt-sptrv --arch sgrt`), optionally averaged over the scene's viewpoints as the
-//! paper averages over five; prints Mrays/s, steps per ray, utilisations and hit rates per
-//! preset and the speed and step ratios against the first, and writes `compare.json`.
-//! On the TRaX chip (`--arch trax-baseline --arch strata`): the STRaTA paper's Tables 1 and 3
-//! for the scene, ours beside the paper's (`strata_tables`).
+//! `rtsim compare --arch A --arch B …`: the same frame on several presets of one chip.
+//!
+//! - SGRT presets (`--arch sgrt-sptrv --arch sgrt`, the SGRT paper's Table 4), optionally
+//!   averaged over the scene's viewpoints as the paper averages over five: Mrays/s, steps per
+//!   ray, utilisations and hit rates per preset and the speed and step ratios against the
+//!   first, written as `compare.json`.
+//! - The TRaX chip (`--arch trax-baseline --arch strata`): the STRaTA paper's Tables 1 and 3
+//!   for the scene, ours beside the paper's (`compare_strata`).
+//!
+//! `compare.json` is deterministic; host time goes to `timing.json`, as for `simulate`.
 
 use crate::cli::SceneArgs;
 use crate::commands::simulate::{FrameArgs, sgrt};
@@ -19,8 +23,9 @@ use toml::Value;
 pub struct CompareArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// An SGRT architecture preset (repeat: `--arch sgrt-sptrv --arch sgrt`); ratios are
-    /// against the first.
+    /// An architecture preset (repeat), all of one chip: SGRT (`sgrt`, `sgrt-sptrv`,
+    /// `sgrt-1`; e.g. `--arch sgrt-sptrv --arch sgrt`, ratios against the first) or TRaX
+    /// (`--arch trax-baseline --arch strata`: STRaTA's Tables 1 and 3).
     #[arg(long = "arch", required = true, value_name = "PRESET")]
     pub archs: Vec<String>,
     /// Average over viewpoints: `all` (the scene's `[[viewpoint]]`s) or a list such as 1,3,5.
@@ -54,8 +59,69 @@ struct Mean {
 struct Run {
     arch: String,
     viewpoint: Option<u32>,
-    seconds: f64,
     report: Report,
+}
+
+/// One run's host time, for `timing.json` (kept out of the deterministic `compare.json`).
+#[derive(Debug, Serialize)]
+pub(crate) struct RunTiming {
+    pub arch: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub viewpoint: Option<u32>,
+    pub simulate_seconds: f64,
+}
+
+/// `timing.json`: host-dependent figures of every run.
+#[derive(Debug, Serialize)]
+pub(crate) struct TimingFile {
+    pub runs: Vec<RunTiming>,
+}
+
+/// The chips `compare` runs presets of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Chip {
+    Sgrt,
+    Trax,
+}
+
+/// Which chip a preset runs on, if `compare` knows it.
+fn chip_of(preset: &str) -> Option<Chip> {
+    match preset {
+        "trax-baseline" | "strata" => Some(Chip::Trax),
+        p if p.starts_with("sgrt") => Some(Chip::Sgrt),
+        _ => None,
+    }
+}
+
+/// The chip every preset runs on; an error names the preset at fault (one `compare` does
+/// not know, or the first of another chip than the first preset's).
+pub(crate) fn chip(archs: &[String]) -> Result<Chip> {
+    const KNOWN: &str = "SGRT: sgrt, sgrt-sptrv, sgrt-1; TRaX: trax-baseline, strata";
+    let mut first: Option<(&str, Chip)> = None;
+    for a in archs {
+        let Some(c) = chip_of(a) else {
+            anyhow::bail!("--arch `{a}`: not a preset rtsim compare runs ({KNOWN})");
+        };
+        match first {
+            None => first = Some((a, c)),
+            Some((f, fc)) if fc != c => anyhow::bail!(
+                "--arch `{a}`: rtsim compare runs presets of one chip, and `{a}` is {} while the \
+                 first, `{f}`, is {} ({KNOWN})",
+                name(c),
+                name(fc)
+            ),
+            Some(_) => {}
+        }
+    }
+    fn name(c: Chip) -> &'static str {
+        match c {
+            Chip::Sgrt => "an SGRT preset",
+            Chip::Trax => "a TRaX-chip preset",
+        }
+    }
+    first
+        .map(|(_, c)| c)
+        .ok_or_else(|| anyhow::anyhow!("no --arch given"))
 }
 
 #[derive(Debug, Serialize)]
@@ -92,11 +158,7 @@ fn viewpoints(args: &CompareArgs, frame: &[Flag]) -> Result<Vec<Option<u32>>> {
 }
 
 pub fn run(args: CompareArgs) -> Result<()> {
-    if args
-        .archs
-        .iter()
-        .all(|a| a == "trax-baseline" || a == "strata")
-    {
+    if chip(&args.archs)? == Chip::Trax {
         return super::compare_strata::run(&args);
     }
     let frame = args.frame.flags()?;
@@ -109,17 +171,15 @@ pub fn run(args: CompareArgs) -> Result<()> {
         .output
         .dir;
     let path = dir.join("compare.json");
+    let timing_path = dir.join("timing.json");
     let mut plan = rtsim_core::output::OutputPlan::new();
     plan.dir(&dir, "the output directory (--out, output.dir)")
-        .file(&path);
+        .file(&path)
+        .file(&timing_path);
     let mut outputs = plan.prepare()?;
+    let mut timing = TimingFile { runs: Vec::new() };
     for &v in &views {
         for arch in &args.archs {
-            anyhow::ensure!(
-                arch.starts_with("sgrt"),
-                "rtsim compare runs the SGRT presets (sgrt, sgrt-sptrv, sgrt-1) or the TRaX \
-                 chip's (trax-baseline, strata), not a mix; got `{arch}`"
-            );
             let mut flags = frame.clone();
             flags.push(("arch.preset", Value::String(arch.clone())));
             if let Some(v) = v {
@@ -136,10 +196,21 @@ pub fn run(args: CompareArgs) -> Result<()> {
                 r.report.ist_steps_per_ray,
                 r.output.timing.simulate_seconds
             );
+            if !r.report.complete {
+                eprintln!(
+                    "warning: {arch} {view}: the frame is incomplete (stopped by the cycle limit \
+                     after {} cycles); its figures are not a whole frame's",
+                    r.report.cycles
+                );
+            }
+            timing.runs.push(RunTiming {
+                arch: arch.clone(),
+                viewpoint: v,
+                simulate_seconds: r.output.timing.simulate_seconds,
+            });
             runs.push(Run {
                 arch: arch.clone(),
                 viewpoint: v,
-                seconds: r.output.timing.simulate_seconds,
                 report: r.report,
             });
         }
@@ -190,8 +261,14 @@ pub fn run(args: CompareArgs) -> Result<()> {
         runs,
     };
     outputs.write(&path, serde_json::to_string_pretty(&file)?.as_bytes())?;
+    outputs.write(
+        &timing_path,
+        serde_json::to_string_pretty(&timing)?.as_bytes(),
+    )?;
     outputs.commit()?;
-    println!("wrote            {}", path.display());
+    for p in [&path, &timing_path] {
+        println!("wrote            {}", p.display());
+    }
     Ok(())
 }
 
@@ -229,4 +306,33 @@ fn means(archs: &[String], runs: &[Run]) -> Vec<Mean> {
             trv_step_ratio: ratio(a, &|r| r.trv_steps_per_ray),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn archs(a: &[&str]) -> Vec<String> {
+        a.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn a_mix_of_chips_blames_the_preset_at_fault() {
+        assert_eq!(chip(&archs(&["sgrt-sptrv", "sgrt"])).unwrap(), Chip::Sgrt);
+        assert_eq!(
+            chip(&archs(&["trax-baseline", "strata"])).unwrap(),
+            Chip::Trax
+        );
+        let e = chip(&archs(&["trax-baseline", "sgrt"]))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("--arch `sgrt`"), "{e}");
+        assert!(e.contains("the first, `trax-baseline`"), "{e}");
+        let e = chip(&archs(&["sgrt", "sgrt-1", "strata"]))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("--arch `strata`"), "{e}");
+        let e = chip(&archs(&["strata", "gpu"])).unwrap_err().to_string();
+        assert!(e.starts_with("--arch `gpu`: not a preset"), "{e}");
+    }
 }

@@ -11,11 +11,15 @@ const PLOT: (f64, f64, f64, f64) = (90.0, 44.0, 560.0, 380.0);
 /// Legend text: its size, and where it starts right of the plot area.
 const LEGEND_TEXT: f64 = 11.0;
 const LEGEND_TEXT_X: f64 = 46.0;
+/// A reference line's label: its text size, and the gap kept between it and the data.
+const MARKER_TEXT: f64 = 11.0;
+const MARKER_GAP: f64 = 5.0;
 
 /// An sRGB colour.
 pub type Rgb = [u8; 3];
 pub const BLACK: Rgb = [0, 0, 0];
 pub const GREY: Rgb = [160, 160, 160];
+pub const WHITE: Rgb = [255, 255, 255];
 const LIGHT: Rgb = [225, 225, 225];
 /// Series colours, assigned in order (Okabe–Ito's colour-blind-safe palette).
 const PALETTE: [Rgb; 8] = [
@@ -208,21 +212,30 @@ impl Chart {
                     line(&mut out, vec![(px, b), (px, b + 5.0)], BLACK, 1.0, false);
                     text(&mut out, px, b + 20.0, 11.0, Anchor::Middle, label);
                 }
-                if let Some((x, label)) = marker {
+                let placed: Vec<Vec<(f64, f64)>> = series
+                    .iter()
+                    .map(|s| {
+                        let mut pts: Vec<(f64, f64)> = s
+                            .points
+                            .iter()
+                            .map(|&(x, y)| (x_axis.map(x), y_axis.map(y)))
+                            // A value the axis cannot place (NaN, infinite, ≤ 0 on a log
+                            // axis) is not drawn.
+                            .filter(|(x, y)| x.is_finite() && y.is_finite())
+                            .collect();
+                        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                        pts
+                    })
+                    .collect();
+                // The reference line goes under the data, its label over it, in a place
+                // no line crosses.
+                let marker_label = marker.as_ref().map(|(x, label)| {
                     let px = x_axis.map(*x);
                     line(&mut out, vec![(px, t), (px, b)], GREY, 2.0, false);
-                    text(&mut out, px + 4.0, t + 14.0, 11.0, Anchor::Start, label);
-                }
-                for s in series {
-                    let mut pts: Vec<(f64, f64)> = s
-                        .points
-                        .iter()
-                        .map(|&(x, y)| (x_axis.map(x), y_axis.map(y)))
-                        // A value the axis cannot place (NaN, infinite, ≤ 0 on a log axis)
-                        // is not drawn.
-                        .filter(|(x, y)| x.is_finite() && y.is_finite())
-                        .collect();
-                    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let (x, anchor, y) = marker_label_place(px, label, &placed, (l, t, r, b));
+                    (x, y, anchor, label)
+                });
+                for (s, pts) in series.iter().zip(placed) {
                     if pts.len() > 1 {
                         line(&mut out, pts.clone(), s.color, 2.0, s.dashed);
                     }
@@ -234,6 +247,9 @@ impl Chart {
                             color: s.color,
                         });
                     }
+                }
+                if let Some((x, y, anchor, label)) = marker_label {
+                    text(&mut out, x, y, MARKER_TEXT, anchor, label);
                 }
                 series
                     .iter()
@@ -270,9 +286,12 @@ impl Chart {
                         }
                     }
                 }
+                // Reference marks over the bars: a white band under the dashes keeps them
+                // visible where they cross a bar.
                 for (i, v, label) in marks {
                     let x0 = l + slot * *i as f64;
                     let y = y_axis.map(*v);
+                    line(&mut out, vec![(x0, y), (x0 + slot, y)], WHITE, 5.0, false);
                     line(&mut out, vec![(x0, y), (x0 + slot, y)], BLACK, 2.0, true);
                     text(
                         &mut out,
@@ -323,6 +342,67 @@ impl Chart {
     }
 }
 
+/// Where a vertical reference line's label goes, as (x, anchor, baseline y): the highest
+/// place, right of the line or else left of it, where no series' line or dot comes within
+/// `MARKER_GAP` of the text; the top right of the line if there is none.
+fn marker_label_place(
+    px: f64,
+    label: &str,
+    series: &[Vec<(f64, f64)>],
+    (l, t, r, b): (f64, f64, f64, f64),
+) -> (f64, Anchor, f64) {
+    let w = crate::raster::text_width(MARKER_TEXT, label);
+    let sides = [
+        (px + 4.0, Anchor::Start, px + 4.0, px + 4.0 + w),
+        (px - 4.0, Anchor::End, px - 4.0 - w, px - 4.0),
+    ];
+    // Baselines from the top down, one text line apart.
+    let mut y = t + 14.0;
+    while y <= b - 4.0 {
+        for (x, anchor, x0, x1) in sides {
+            if x0 < l || x1 > r {
+                continue;
+            }
+            let (top, bottom) = (y - MARKER_TEXT - MARKER_GAP, y + 3.0 + MARKER_GAP);
+            let hit = series.iter().any(|pts| {
+                y_span(pts, x0 - MARKER_GAP, x1 + MARKER_GAP)
+                    .is_some_and(|(lo, hi)| lo <= bottom && hi >= top)
+            });
+            if !hit {
+                return (x, anchor, y);
+            }
+        }
+        y += MARKER_TEXT + 3.0;
+    }
+    (px + 4.0, Anchor::Start, t + 14.0)
+}
+
+/// The least and greatest y of a polyline (points in x order, each a dot of radius 4)
+/// between x0 and x1; None where it does not reach that range.
+fn y_span(pts: &[(f64, f64)], x0: f64, x1: f64) -> Option<(f64, f64)> {
+    const DOT: f64 = 4.0;
+    let mut span: Option<(f64, f64)> = None;
+    let mut add = |y: f64, r: f64| {
+        let (lo, hi) = span.unwrap_or((f64::INFINITY, f64::NEG_INFINITY));
+        span = Some((lo.min(y - r), hi.max(y + r)));
+    };
+    for &(x, y) in pts {
+        if x >= x0 - DOT && x <= x1 + DOT {
+            add(y, DOT);
+        }
+    }
+    // Where a segment crosses the range's edges.
+    for w in pts.windows(2) {
+        let ((xa, ya), (xb, yb)) = (w[0], w[1]);
+        for x in [x0, x1] {
+            if xa < x && x < xb {
+                add(ya + (yb - ya) * (x - xa) / (xb - xa), 1.0);
+            }
+        }
+    }
+    span
+}
+
 fn text(out: &mut Vec<Prim>, x: f64, y: f64, size: f64, anchor: Anchor, s: &str) {
     out.push(Prim::Text {
         x,
@@ -346,10 +426,22 @@ fn line(out: &mut Vec<Prim>, points: Vec<(f64, f64)>, color: Rgb, width: f64, da
 
 /// Horizontal grid lines and labels at the y axis's ticks.
 fn y_grid(out: &mut Vec<Prim>, y: &Axis, l: f64, r: f64) {
-    for v in y.ticks() {
-        let py = y.map(v);
+    let ticks = y.ticks();
+    for (v, label) in ticks.iter().zip(tick_labels(y.scale, &ticks)) {
+        let py = y.map(*v);
         line(out, vec![(l, py), (r, py)], LIGHT, 1.0, false);
-        text(out, l - 6.0, py + 4.0, 11.0, Anchor::End, &short_number(v));
+        text(out, l - 6.0, py + 4.0, 11.0, Anchor::End, &label);
+    }
+}
+
+/// One axis's tick labels, all in one form: on a log₁₀ axis reaching below 0.001 every
+/// label is a power of ten in exponent form (`1e-1` … `1e-5`), never `0.001` beside `1e-4`.
+fn tick_labels(scale: Scale, ticks: &[f64]) -> Vec<String> {
+    let tiny = ticks.iter().any(|v| *v != 0.0 && v.abs() < 1e-3);
+    if scale == Scale::Log10 && tiny {
+        ticks.iter().map(|v| format!("{v:.0e}")).collect()
+    } else {
+        ticks.iter().map(|v| short_number(*v)).collect()
     }
 }
 
@@ -605,5 +697,110 @@ mod tests {
         // The plot narrowed, and its right edge is where the grid lines end.
         let right = PLOT.2.min(x - LEGEND_TEXT_X);
         assert!(right < PLOT.2, "{right}");
+    }
+
+    #[test]
+    fn log_axis_tick_labels_share_one_form() {
+        let d = Axis::fit(Scale::Log10, [2e-5, 0.05].into_iter(), 0.0, 1.0, false);
+        let labels = tick_labels(Scale::Log10, &d.ticks());
+        assert_eq!(labels, ["1e-5", "1e-4", "1e-3", "1e-2", "1e-1"]);
+        // Without tiny values the short form stays.
+        let labels = tick_labels(Scale::Log10, &[0.01, 0.1, 1.0, 10.0]);
+        assert_eq!(labels, ["0.01", "0.1", "1", "10"]);
+    }
+
+    /// The box of a text primitive (left, top, right, bottom).
+    fn text_box(p: &Prim) -> Option<(f64, f64, f64, f64)> {
+        let Prim::Text {
+            x,
+            y,
+            size,
+            anchor,
+            text,
+            ..
+        } = p
+        else {
+            return None;
+        };
+        let w = crate::raster::text_width(*size, text);
+        let x0 = match anchor {
+            Anchor::Start => *x,
+            Anchor::Middle => x - w / 2.0,
+            Anchor::End => x - w,
+        };
+        Some((x0, y - size, x0 + w, y + 3.0))
+    }
+
+    #[test]
+    fn the_marker_label_stays_clear_of_the_lines() {
+        // A flat line at the top of the plot, right across the marker: the label moves down.
+        let points = vec![(1.0, 100.0), (2.0, 100.0), (4.0, 100.0)];
+        let mut c = line_chart(Scale::Linear, points, vec![]);
+        if let Body::Lines { series, .. } = &mut c.body {
+            series.push(Series {
+                name: "low".into(),
+                points: vec![(1.0, 0.0), (4.0, 0.0)],
+                color: palette(1),
+                dashed: false,
+            });
+        }
+        let prims = c.layout();
+        let label = prims
+            .iter()
+            .find(|p| matches!(p, Prim::Text { text, .. } if text == "m"))
+            .and_then(text_box)
+            .unwrap();
+        let lines: Vec<&Vec<(f64, f64)>> = prims
+            .iter()
+            .filter_map(|p| match p {
+                // The series' lines, not the legend's right of the plot.
+                Prim::Line { points, color, .. }
+                    if [palette(0), palette(1)].contains(color)
+                        && points.iter().all(|p| p.0 <= PLOT.2) =>
+                {
+                    Some(points)
+                }
+                _ => None,
+            })
+            .collect();
+        assert_eq!(lines.len(), 2);
+        for pts in lines {
+            let (lo, hi) = y_span(pts, label.0, label.2).unwrap();
+            assert!(hi < label.1 || lo > label.3, "{label:?} meets {pts:?}");
+        }
+        // Still inside the plot, beside its reference line.
+        assert!(label.1 > PLOT.1 && label.3 < PLOT.3, "{label:?}");
+    }
+
+    #[test]
+    fn bar_marks_are_drawn_over_the_bars() {
+        let c = Chart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            body: Body::Bars {
+                categories: vec!["a".into()],
+                series: vec![BarSeries {
+                    name: "s".into(),
+                    values: vec![Some(90.0)],
+                    color: palette(0),
+                }],
+                marks: vec![(0, 60.0, "paper".into())],
+            },
+        };
+        let prims = c.layout();
+        let bar = prims
+            .iter()
+            .position(|p| matches!(p, Prim::Rect { .. }))
+            .unwrap();
+        let halo = prims
+            .iter()
+            .position(|p| matches!(p, Prim::Line { color, .. } if *color == WHITE))
+            .unwrap();
+        let dashes = prims
+            .iter()
+            .position(|p| matches!(p, Prim::Line { dashed: true, .. }))
+            .unwrap();
+        assert!(bar < halo && halo < dashes);
     }
 }

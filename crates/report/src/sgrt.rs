@@ -121,9 +121,13 @@ fn n_runs(rows: &[&Row]) -> String {
 }
 
 /// Table 3: RGS on four SRPs, primary and forced-specular rays.
-/// A 1920×1080 frame (Table 6's).
+/// A 16:9 frame: Table 6's 1920×1080, or its `--quick` stand-in (96×54 in
+/// `experiments/sgrt-tables.toml`); Table 3's frames are 4:3 at either scale.
 fn full_hd(row: &Row) -> bool {
-    row.num(WIDTH) == Some(1920.0) && row.num(HEIGHT) == Some(1080.0)
+    match (row.num(WIDTH), row.num(HEIGHT)) {
+        (Some(w), Some(h)) => w * 9.0 == h * 16.0,
+        _ => false,
+    }
 }
 
 pub fn table3(r: &Results) -> String {
@@ -528,6 +532,14 @@ mod tests {
         let t6 = table6(&r);
         assert!(t6.contains("data-points=\"1\""), "{t6}");
         assert!(!t6.contains("data-points=\"0"), "{t6}");
+        // The same at `--quick` scale: 64×48 frames are Table 3's, 96×54 ones Table 6's.
+        let r = Results {
+            source: "t.csv".into(),
+            rows: vec![shaded(0, 64.0, 48.0, 100.0), shaded(1, 96.0, 54.0, 80.0)],
+        };
+        assert!(!table3(&r).contains("data-points=\"0 1\""));
+        let t6 = table6(&r);
+        assert!(t6.contains("data-points=\"1\"") && !t6.contains("data-points=\"0"), "{t6}");
         // Two scenes: their mean, then each scene's own.
         let (a, mut conf) = shaded(2, 1920.0, 1080.0, 90.0);
         conf.values

@@ -117,11 +117,33 @@ impl Table {
             path.to_path_buf()
         };
         let text = std::fs::read_to_string(&file).map_err(|e| ReportError::io(&file, e))?;
-        let mut table = if file.extension().is_some_and(|e| e == "jsonl") {
+        // A table with no row (or cut off before its header ended) means no point has
+        // finished: there is nothing to report, and an empty report would look like success.
+        let none_finished = |what: &str| {
+            ReportError::input(
+                path,
+                format!(
+                    "no point has finished: {} {what} (wait for the sweep, or resume it with `rtsim sweep EXP`)",
+                    file.display()
+                ),
+            )
+        };
+        let is_jsonl = file.extension().is_some_and(|e| e == "jsonl");
+        if !is_jsonl && !text.contains('\n') {
+            return Err(none_finished(if text.trim().is_empty() {
+                "is empty"
+            } else {
+                "ends inside its header line"
+            }));
+        }
+        let mut table = if is_jsonl {
             parse_jsonl(&file, &text)?
         } else {
             parse_csv(&file, &text)?
         };
+        if table.rows.is_empty() {
+            return Err(none_finished("has no rows"));
+        }
         let dir = file.parent().unwrap_or(Path::new("."));
         for row in &mut table.rows {
             let resolved = Store::new(dir).point_dir(row.point).join(RESOLVED);
@@ -339,6 +361,34 @@ mod tests {
             t.rows[1].text("arch.preset"),
             None,
             "no point directory: nothing added"
+        );
+    }
+
+    #[test]
+    fn a_table_without_finished_points_is_an_error_naming_the_directory() {
+        let dir = std::env::temp_dir().join(format!("rtsim-report-empty-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let cases = [
+            ("", "is empty"),
+            ("point,arch.preset,trax.cyc", "ends inside its header"),
+            ("point,arch.preset\n", "has no rows"),
+        ];
+        for (text, why) in cases {
+            std::fs::write(dir.join(CSV), text).unwrap();
+            let e = Table::load(&dir).unwrap_err().to_string();
+            assert!(e.starts_with(&dir.display().to_string()), "{e}");
+            assert!(
+                e.contains("no point has finished") && e.contains(why),
+                "{e}"
+            );
+        }
+        std::fs::remove_file(dir.join(CSV)).unwrap();
+        std::fs::write(dir.join(JSONL), "\n").unwrap();
+        let e = Table::load(&dir).unwrap_err().to_string();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(
+            e.contains("no point has finished") && e.contains("has no rows"),
+            "{e}"
         );
     }
 
