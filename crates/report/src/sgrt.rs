@@ -539,7 +539,10 @@ mod tests {
         };
         assert!(!table3(&r).contains("data-points=\"0 1\""));
         let t6 = table6(&r);
-        assert!(t6.contains("data-points=\"1\"") && !t6.contains("data-points=\"0"), "{t6}");
+        assert!(
+            t6.contains("data-points=\"1\"") && !t6.contains("data-points=\"0"),
+            "{t6}"
+        );
         // Two scenes: their mean, then each scene's own.
         let (a, mut conf) = shaded(2, 1920.0, 1080.0, 90.0);
         conf.values
