@@ -228,8 +228,24 @@ fn single_points_merge_and_slurm_scripts() {
     assert!(line.contains("0..=6"), "{line}");
     let jobs = tmp.path().join("jobs");
     ok(sweep(&exp, &out).arg("--emit-slurm").arg(&jobs));
+    ok(sweep(&exp, &out).arg("--emit-slurm").arg(&jobs).args([
+        "--sbatch=--time=1:00:00",
+        "--sbatch",
+        "--mem=2G",
+    ]));
     let points = std::fs::read_to_string(jobs.join("points.sbatch")).unwrap();
     assert!(points.contains("#SBATCH --array=0-6"), "{points}");
+    assert!(
+        points.contains("#SBATCH --time=1:00:00\n#SBATCH --mem=2G\n"),
+        "{points}"
+    );
+    let line = fails(
+        sweep(&exp, &out)
+            .arg("--emit-slurm")
+            .arg(&jobs)
+            .arg("--sbatch=--array=0-1"),
+    );
+    assert!(line.contains("--array"), "{line}");
     assert!(points.contains("--point \"$SLURM_ARRAY_TASK_ID\""));
     assert!(
         std::fs::read_to_string(jobs.join("submit.sh"))

@@ -11,6 +11,7 @@ use rtsim_sweep::slurm::{SlurmJob, scripts};
 use rtsim_sweep::store::{Build, CONFIG, PointRecord, Status, Store, describe_exit};
 use rtsim_sweep::{Experiment, Point};
 use serde::Serialize;
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::Mutex;
@@ -38,6 +39,16 @@ pub struct SweepArgs {
     /// Write Slurm scripts (an array job and a dependent merge job) into DIR instead of running.
     #[arg(long, value_name = "DIR")]
     pub emit_slurm: Option<PathBuf>,
+    /// With --emit-slurm: an extra `#SBATCH` option for both jobs, repeatable (e.g.
+    /// `--sbatch=--time=4:00:00 --sbatch=--mem=8G --sbatch=--partition=long`). Each point
+    /// runs on the CPUs Slurm gives its task (`--cpus-per-task`, default 1).
+    #[arg(
+        long,
+        value_name = "OPTION",
+        requires = "emit_slurm",
+        allow_hyphen_values = true
+    )]
+    pub sbatch: Vec<String>,
     /// List the points and their parameters, then exit.
     #[arg(long)]
     pub list: bool,
@@ -268,6 +279,11 @@ fn run_points(
     let failures = Mutex::new(Vec::new());
     let errors = Mutex::new(Vec::new());
     let bar = progress::bar(pending.len() as u64, "sweep");
+    // Without a terminal (nohup, a batch log) there is no bar: a line per finished point
+    // instead, with the elapsed time, so a long sweep's log shows where it is.
+    let lines = !std::io::stderr().is_terminal();
+    let (start, done) = (std::time::Instant::now(), AtomicUsize::new(0));
+    let total = pending.len();
     std::thread::scope(|s| {
         for _ in 0..jobs {
             s.spawn(|| {
@@ -285,6 +301,14 @@ fn run_points(
                         Err(err) => errors.lock().expect("no panics").push(err),
                     }
                     bar.inc(1);
+                    if lines {
+                        let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                        eprintln!(
+                            "rtsim sweep: point p{:05} ended ({n} of {total}, {:.0} s elapsed)",
+                            p.index,
+                            start.elapsed().as_secs_f64()
+                        );
+                    }
                 }
             });
         }
@@ -403,6 +427,9 @@ fn emit_slurm(args: &SweepArgs, e: &Experiment, out: &Path, n: usize, dir: &Path
     };
     let binary = std::env::current_exe().context("locating the rtsim binary")?;
     let (experiment, out) = (abs(&args.experiment)?, abs(out)?);
+    for o in &args.sbatch {
+        rtsim_sweep::slurm::check_option(o).map_err(|m| anyhow::anyhow!(m))?;
+    }
     let job = SlurmJob {
         name: &e.name,
         binary: &binary,
@@ -410,7 +437,16 @@ fn emit_slurm(args: &SweepArgs, e: &Experiment, out: &Path, n: usize, dir: &Path
         out: &out,
         points: n,
         quick: args.quick,
+        options: &args.sbatch,
     };
+    if n > rtsim_sweep::slurm::DEFAULT_MAX_ARRAY_SIZE {
+        eprintln!(
+            "warning: {n} array tasks (0..={}): Slurm's default MaxArraySize is {}, so the \
+             cluster's slurm.conf must allow more, or the submission is refused",
+            n - 1,
+            rtsim_sweep::slurm::DEFAULT_MAX_ARRAY_SIZE
+        );
+    }
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for (name, text) in scripts(&job) {
         let path = dir.join(name);
@@ -447,6 +483,7 @@ mod tests {
             point: None,
             merge: false,
             emit_slurm: None,
+            sbatch: Vec::new(),
             list: false,
         }
     }

@@ -21,6 +21,37 @@ pub struct SlurmJob<'a> {
     pub out: &'a Path,
     pub points: usize,
     pub quick: bool,
+    /// Extra `#SBATCH` options for both jobs (`--time=4:00:00`, `--mem=8G`,
+    /// `--partition=long`, `--cpus-per-task=2`), each after the defaults so it wins.
+    pub options: &'a [String],
+}
+
+/// Slurm's default `MaxArraySize` (`slurm.conf`): an array job's indices must be below it.
+pub const DEFAULT_MAX_ARRAY_SIZE: usize = 1001;
+
+/// Check one extra `#SBATCH` option: a long option (`--name=value` or `--flag`), on one
+/// line; anything else would be a broken or misleading script.
+pub fn check_option(o: &str) -> Result<(), String> {
+    let ok = o.starts_with("--")
+        && o.len() > 2
+        && !o
+            .chars()
+            .any(|c| c.is_control() || c.is_whitespace() && c != ' ')
+        && !o.contains(" #");
+    if !ok {
+        return Err(format!(
+            "--sbatch {o:?}: give one long sbatch option, e.g. --sbatch=--time=4:00:00"
+        ));
+    }
+    for reserved in ["--array", "--output", "--job-name", "--dependency"] {
+        if o == reserved || o.starts_with(&format!("{reserved}=")) {
+            return Err(format!(
+                "--sbatch {o:?}: the scripts set {reserved} themselves (one task per point, \
+                 logs under the results directory)"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Quote for a POSIX shell.
@@ -40,6 +71,11 @@ pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
     let q = |p: &Path| shell_quote(&p.display().to_string());
     let logs = job.out.join("slurm");
     let quick = if job.quick { " --quick" } else { "" };
+    let extra: String = job
+        .options
+        .iter()
+        .map(|o| format!("#SBATCH {o}\n"))
+        .collect();
     let base = format!(
         "{} sweep {} --out {}",
         q(job.binary),
@@ -54,6 +90,7 @@ pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
          #SBATCH --ntasks=1\n\
          #SBATCH --cpus-per-task=1\n\
          #SBATCH --output={logs}/point-%a.log\n\
+         {extra}\
          set -euo pipefail\n\
          exec {base} --point \"$SLURM_ARRAY_TASK_ID\"{quick}\n",
         name = job.name,
@@ -68,6 +105,7 @@ pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
          #SBATCH --ntasks=1\n\
          #SBATCH --cpus-per-task=1\n\
          #SBATCH --output={logs}/merge.log\n\
+         {extra}\
          set -euo pipefail\n\
          exec {base} --merge{quick}\n",
         name = job.name,
@@ -106,6 +144,7 @@ mod tests {
             out: Path::new("/scratch/results/fig7"),
             points: 16,
             quick: true,
+            options: &["--time=4:00:00".into(), "--mem=8G".into()],
         };
         let s = scripts(&job);
         assert_eq!(s[0].0, "points.sbatch");
@@ -115,6 +154,26 @@ mod tests {
              --point \"$SLURM_ARRAY_TASK_ID\" --quick\n"
         ));
         assert!(s[1].1.contains("--merge --quick\n"));
+        for script in &s[..2] {
+            assert!(
+                script
+                    .1
+                    .contains("#SBATCH --time=4:00:00\n#SBATCH --mem=8G\nset -euo"),
+                "{}",
+                script.1
+            );
+        }
+        check_option("--partition=long").unwrap();
+        check_option("--exclusive").unwrap();
+        for bad in [
+            "time=4",
+            "--array=0-3",
+            "--mem=8G\nrm -rf /",
+            "--",
+            "--output=x",
+        ] {
+            assert!(check_option(bad).is_err(), "{bad}");
+        }
         assert!(
             s[2].1
                 .contains("--dependency=afterany:\"$jid\" merge.sbatch")
