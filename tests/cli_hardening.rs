@@ -636,12 +636,16 @@ fn messages_point_at_the_right_thing() {
         says(d, args, want);
     }
     // A negative value for an unsigned flag: the range, not "unexpected argument '-1'".
-    let o = rtsim().args(["render", "--width", "-1"]).output().unwrap();
+    let o = rtsim().args(["render", "--spp", "-1"]).output().unwrap();
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
         e.contains("must not be negative (allowed 0..=4294967295)"),
         "{e}"
     );
+    // Image sizes state their own range, the one `workload.width` allows.
+    let o = rtsim().args(["render", "--width", "-1"]).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("must not be negative (allowed 1..=16384)"), "{e}");
     assert!(!d.join("o").exists(), "a failed run left its --out behind");
 }
 
