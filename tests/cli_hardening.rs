@@ -645,7 +645,10 @@ fn messages_point_at_the_right_thing() {
     // Image sizes state their own range, the one `workload.width` allows.
     let o = rtsim().args(["render", "--width", "-1"]).output().unwrap();
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("must not be negative (allowed 1..=16384)"), "{e}");
+    assert!(
+        e.contains("must not be negative (allowed 1..=16384)"),
+        "{e}"
+    );
     assert!(!d.join("o").exists(), "a failed run left its --out behind");
 }
 
