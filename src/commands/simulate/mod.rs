@@ -249,6 +249,22 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     Ok(())
 }
 
+/// The log-average luminance of the whole frame (the automatic exposure's key), from the
+/// functional tracer on the session's BVH and traversal.
+fn full_frame_log_average(s: &Session, params: &WorkloadParams) -> f32 {
+    let integ = rtsim_trace::Integrator::new(&s.resolved.scene, &s.tracer, params.clone());
+    let start = std::time::Instant::now();
+    let frame = s.pool.install(|| rtsim_trace::render_frame(&integ, &|| {}));
+    eprintln!(
+        "exposure         the whole frame's (a functional render of {}x{}, {:.1} s), so the \
+         window's pixels equal `rtsim render`'s",
+        params.width,
+        params.height,
+        start.elapsed().as_secs_f64()
+    );
+    frame.log_average_luminance()
+}
+
 /// Write the image, heat map, stats, timing and resolved config as one set (all or none);
 /// returns the heat map's top value.
 fn write_outputs(s: &Session, out: &SimOutput, mut files: FrameOutputs) -> Result<u64> {
@@ -267,14 +283,15 @@ fn write_outputs(s: &Session, out: &SimOutput, mut files: FrameOutputs) -> Resul
     let tone = match (cfg.output.exposure, params.kind) {
         (Some(exposure), _) => ToneMap::Linear { exposure },
         (None, WorkloadKind::Ao) => ToneMap::Linear { exposure: 1.0 },
-        // A window is exposed for its own pixels: the unsimulated black around it is not
-        // part of the picture (with `output.exposure` set, its pixels equal `rtsim render`'s).
-        (None, _) => match cfg.sim.window {
-            Some([x0, y0, x1, y1]) => ToneMap::AutoFrom {
-                log_average: frame.log_average_luminance_in(x0..x1, y0..y1),
-            },
-            None => ToneMap::Auto,
+        // A window is exposed as the whole frame would be, so its pixels equal `rtsim
+        // render`'s: the unsimulated black around it must not set the key (it blew windows
+        // out), and the window's own key would differ from the frame's. The whole frame's
+        // key comes from the functional tracer, whose radiance the chips reproduce exactly;
+        // it costs a functional frame, small beside any chip simulation.
+        (None, _) if cfg.sim.window.is_some() => ToneMap::AutoFrom {
+            log_average: full_frame_log_average(s, &params),
         },
+        (None, _) => ToneMap::Auto,
     };
     let image = frame.to_srgb8(tone);
     crate::commands::warn_if_black(&image, params.kind, &s.resolved);
