@@ -214,12 +214,20 @@ fn validate_points(e: &Experiment, points: &[Point]) -> Result<()> {
         };
         let config = rtsim_run::layers(&inputs, None)
             .and_then(|l| l.build::<rtsim_run::RunConfig>())
-            .with_context(|| origin.clone())?;
+            .map_err(|err| {
+                // Located errors already start with the point's origin.
+                let text = err.to_string();
+                if text.starts_with(&origin) {
+                    anyhow::anyhow!(text)
+                } else {
+                    anyhow::anyhow!("{origin}: {text}")
+                }
+            })?;
         // Only the name: loading every point's scene here would take as long as the sweep.
         let name = &config.scene.name;
         let missing = match rtsim_scene::registry::find_scene(name) {
             Err(err) => Some(err.to_string()),
-            Ok(rtsim_scene::SceneSource::File(path)) if !path.exists() => {
+            Ok(rtsim_scene::SceneSource::File(path)) if !path.is_file() => {
                 Some(format!("no scene file at {}", path.display()))
             }
             Ok(_) => None,
@@ -245,7 +253,38 @@ fn validate_args(e: &Experiment) -> Result<()> {
         line.extend(["--threads".into(), "1".into()]);
     }
     match crate::cli::Cli::try_parse_from(&line) {
-        Ok(_) => Ok(()),
+        Ok(cli) => {
+            // A flag that sets a configuration key the experiment's tables also set would
+            // override the grid or the points for every point, while their records say
+            // otherwise: refused. (A flag for a key no table sets is a fixed setting, as in
+            // [base]; each point's config.resolved.toml records it.)
+            let mut clash: Vec<String> = Vec::new();
+            for (key, flag) in settings_of(&cli.command)? {
+                let set_by_tables = [false, true].iter().any(|&quick| {
+                    e.points(quick).is_ok_and(|points| {
+                        points.iter().any(|p| {
+                            p.config_toml
+                                .parse::<toml::Table>()
+                                .is_ok_and(|t| dotted(&t, &key))
+                        })
+                    })
+                });
+                if set_by_tables && !clash.iter().any(|c| c.starts_with(&key)) {
+                    clash.push(format!("{key} ({flag})"));
+                }
+            }
+            if clash.is_empty() {
+                return Ok(());
+            }
+            bail!(
+                "{}: `args` = {:?} set {}, which the experiment's tables also set: the flag \
+                 would override them for every point, unrecorded; set it in one place only \
+                 ([base], [grid] or [[point]])",
+                e.path.display(),
+                e.args,
+                clash.join(", ")
+            )
+        }
         Err(err) => {
             let text = err.to_string();
             let first = text.lines().next().unwrap_or_default();
@@ -258,6 +297,82 @@ fn validate_args(e: &Experiment) -> Result<()> {
             )
         }
     }
+}
+
+/// Whether the table sets the dotted key.
+fn dotted(t: &toml::Table, key: &str) -> bool {
+    let mut cur = t;
+    let mut parts = key.split('.').peekable();
+    while let Some(part) = parts.next() {
+        match cur.get(part) {
+            Some(_) if parts.peek().is_none() => return true,
+            Some(toml::Value::Table(inner)) => cur = inner,
+            _ => return false,
+        }
+    }
+    false
+}
+
+/// The configuration keys a parsed command line sets through its flags, each with its flag
+/// (the output directory aside, which the sweep sets).
+fn settings_of(c: &crate::cli::Command) -> Result<Vec<(String, String)>> {
+    use crate::cli::Command;
+    let flag_of = |key: &str| match key {
+        "workload.kind" => "--workload",
+        "workload.width" => "--width",
+        "workload.height" => "--height",
+        "workload.spp" => "--spp",
+        "sim.window" => "--window",
+        "sim.cycle_limit" => "--cycle-limit",
+        "sim.mode" => "--mode",
+        "arch.preset" => "--arch",
+        "dram.preset" => "--dram-preset",
+        "scene.name" => "--scene",
+        "seed" => "--seed",
+        _ => "a flag",
+    };
+    let mut keys: Vec<&str> = Vec::new();
+    let scene = |a: &crate::cli::SceneArgs, keys: &mut Vec<&str>| {
+        if a.scene.is_some() {
+            keys.push("scene.name");
+        }
+        if a.seed.is_some() {
+            keys.push("seed");
+        }
+    };
+    let flags;
+    match c {
+        Command::Render(a) => {
+            scene(&a.scene, &mut keys);
+            for (key, set) in [
+                ("workload.kind", a.workload.is_some()),
+                ("workload.width", a.width.is_some()),
+                ("workload.height", a.height.is_some()),
+                ("workload.spp", a.spp.is_some()),
+            ] {
+                if set {
+                    keys.push(key);
+                }
+            }
+        }
+        Command::Simulate(a) => {
+            scene(&a.scene, &mut keys);
+            flags = crate::commands::simulate::flags(a)?;
+            keys.extend(flags.iter().map(|(k, _)| *k).filter(|k| *k != "output.dir"));
+        }
+        Command::BvhStats(a) => {
+            scene(&a.scene, &mut keys);
+            if a.dram_preset.is_some() {
+                keys.push("dram.preset");
+            }
+        }
+        Command::Bench(a) => scene(&a.scene, &mut keys),
+        _ => {}
+    }
+    Ok(keys
+        .into_iter()
+        .map(|k| (k.to_string(), flag_of(k).to_string()))
+        .collect())
 }
 
 /// A failed point: its number, directory and how its command ended.
@@ -290,21 +405,26 @@ fn run_points(
                 loop {
                     let k = next.fetch_add(1, Ordering::Relaxed);
                     let Some(p) = pending.get(k) else { break };
-                    match run_point(&exe, e, p, quick, store, jobs > 1) {
-                        Ok(None) => {}
+                    let how = match run_point(&exe, e, p, quick, store, jobs > 1) {
+                        Ok(None) => "finished".to_string(),
                         Ok(Some((dir, exit))) => {
+                            let how = format!("FAILED ({exit})");
                             failures
                                 .lock()
                                 .expect("no panics")
                                 .push((p.index, dir, exit));
+                            how
                         }
-                        Err(err) => errors.lock().expect("no panics").push(err),
-                    }
+                        Err(err) => {
+                            errors.lock().expect("no panics").push(err);
+                            "stopped the sweep".to_string()
+                        }
+                    };
                     bar.inc(1);
                     if lines {
                         let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                         eprintln!(
-                            "rtsim sweep: point p{:05} ended ({n} of {total}, {:.0} s elapsed)",
+                            "rtsim sweep: point p{:05} {how} ({n} of {total}, {:.0} s elapsed)",
                             p.index,
                             start.elapsed().as_secs_f64()
                         );
@@ -430,8 +550,10 @@ fn emit_slurm(args: &SweepArgs, e: &Experiment, out: &Path, n: usize, dir: &Path
     for o in &args.sbatch {
         rtsim_sweep::slurm::check_option(o).map_err(|m| anyhow::anyhow!(m))?;
     }
+    let workdir = std::env::current_dir().context("locating the working directory")?;
     let job = SlurmJob {
         name: &e.name,
+        workdir: &workdir,
         binary: &binary,
         experiment: &experiment,
         out: &out,
@@ -532,12 +654,31 @@ mod tests {
         ));
         assert!(e.contains("`args`") && e.contains("--frobnicate"), "{e}");
         assert!(!tmp.path().join("r").exists());
-        // What the shipped experiments pass is accepted.
+        // A fixed setting no table gives is accepted (each point's resolved config records
+        // it).
         let e = Experiment::parse(
             "name = \"t\"\ncommand = \"simulate\"\nargs = [\"--arch\", \"strata\"]\n",
             Path::new("t.toml"),
         )
         .unwrap();
         validate_args(&e).unwrap();
+        // A flag for a key the grid or [base] sets would override it unrecorded: refused,
+        // naming the keys (it ran four identical points recorded as four different ones).
+        let e = err(args(
+            tmp.path(),
+            "name = \"t\"\ncommand = \"render\"\nargs = [\"--width\", \"12\", \"--spp\", \"1\"]\n\
+             [base]\n\"workload.height\" = 8\n[grid]\n\"workload.width\" = [8, 16]\n\
+             \"workload.spp\" = [1, 2]\n",
+        ));
+        assert!(
+            e.contains("workload.width (--width)") && e.contains("workload.spp (--spp)"),
+            "{e}"
+        );
+        let e = err(args(
+            tmp.path(),
+            "name = \"t\"\ncommand = \"simulate\"\nargs = [\"--arch\", \"strata\"]\n\
+             [base]\n\"arch.preset\" = \"sgrt\"\n",
+        ));
+        assert!(e.contains("arch.preset (--arch)"), "{e}");
     }
 }

@@ -317,6 +317,12 @@ impl Experiment {
                 }
                 match v {
                     Value::Array(a) if !a.is_empty() => q.grid.push((key, a)),
+                    Value::Array(_) => {
+                        return Err(bad(format!(
+                            "[quick] `{key}` = []: the list that replaces the grid's values \
+                             of `{key}` is empty (give at least one value)"
+                        )));
+                    }
                     other => {
                         return Err(bad(format!(
                             "[quick] `{key}` = {other}: the [grid] varies `{key}`, so [quick] \
@@ -691,6 +697,14 @@ mod tests {
             err.contains("`arch.trax.tms`") && err.contains("list") && err.contains("[quick]"),
             "{err}"
         );
+        // An empty replacement list says so (it said "give a list").
+        let err = parse(
+            "name = \"t\"\ncommand = \"simulate\"\n[grid]\n\"arch.trax.tms\" = [32, 128]\n\
+             [quick]\n\"arch.trax.tms\" = []\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("is empty"), "{err}");
         // Points that run the same settings are refused, naming both.
         let err = parse(
             "name = \"t\"\ncommand = \"simulate\"\n[base]\n\"workload.width\" = 1024\n\

@@ -6,7 +6,9 @@
 //! `DIR/submit.sh`, which submits the array and the merge with `--dependency=afterany` on it
 //! (the merge reports any point that did not finish, so it must run whatever happened).
 //! Every path is absolute, so the scripts run from any working directory of any node that sees
-//! the same file system. Slurm's default `MaxArraySize` is 1001: larger sweeps need it raised
+//! the same file system; the jobs run in the directory the scripts were emitted from
+//! (`--chdir`), so relative paths in the experiment (scene files) mean what they do locally.
+//! Slurm's default `MaxArraySize` is 1001: larger sweeps need it raised
 //! in `slurm.conf`.
 
 use std::path::Path;
@@ -15,6 +17,9 @@ use std::path::Path;
 #[derive(Clone, Debug)]
 pub struct SlurmJob<'a> {
     pub name: &'a str,
+    /// The directory the sweep was emitted from: the jobs run there, so relative paths in
+    /// the experiment (scene files) mean what they mean to a local run.
+    pub workdir: &'a Path,
     /// The rtsim binary, the experiment file and the results directory (all absolute).
     pub binary: &'a Path,
     pub experiment: &'a Path,
@@ -43,7 +48,13 @@ pub fn check_option(o: &str) -> Result<(), String> {
             "--sbatch {o:?}: give one long sbatch option, e.g. --sbatch=--time=4:00:00"
         ));
     }
-    for reserved in ["--array", "--output", "--job-name", "--dependency"] {
+    for reserved in [
+        "--array",
+        "--output",
+        "--error",
+        "--job-name",
+        "--dependency",
+    ] {
         if o == reserved || o.starts_with(&format!("{reserved}=")) {
             return Err(format!(
                 "--sbatch {o:?}: the scripts set {reserved} themselves (one task per point, \
@@ -90,6 +101,7 @@ pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
          #SBATCH --ntasks=1\n\
          #SBATCH --cpus-per-task=1\n\
          #SBATCH --output={logs}/point-%a.log\n\
+         #SBATCH --chdir={dir}\n\
          {extra}\
          set -euo pipefail\n\
          exec {base} --point \"$SLURM_ARRAY_TASK_ID\"{quick}\n",
@@ -97,6 +109,7 @@ pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
         n = job.points,
         last = job.points.saturating_sub(1),
         logs = q(&logs),
+        dir = q(job.workdir),
     );
     let merge = format!(
         "#!/bin/bash\n\
@@ -105,11 +118,13 @@ pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
          #SBATCH --ntasks=1\n\
          #SBATCH --cpus-per-task=1\n\
          #SBATCH --output={logs}/merge.log\n\
+         #SBATCH --chdir={dir}\n\
          {extra}\
          set -euo pipefail\n\
          exec {base} --merge{quick}\n",
         name = job.name,
         logs = q(&logs),
+        dir = q(job.workdir),
     );
     let submit = format!(
         "#!/bin/sh\n\
@@ -139,6 +154,7 @@ mod tests {
     fn scripts_run_each_point_and_merge_after() {
         let job = SlurmJob {
             name: "fig7",
+            workdir: Path::new("/home/u/work"),
             binary: Path::new("/opt/rtsim"),
             experiment: Path::new("/home/u/exp dir/fig7.toml"),
             out: Path::new("/scratch/results/fig7"),
@@ -154,6 +170,8 @@ mod tests {
              --point \"$SLURM_ARRAY_TASK_ID\" --quick\n"
         ));
         assert!(s[1].1.contains("--merge --quick\n"));
+        assert!(s[0].1.contains("#SBATCH --chdir=/home/u/work\n"));
+        assert!(s[1].1.contains("#SBATCH --chdir=/home/u/work\n"));
         for script in &s[..2] {
             assert!(
                 script
