@@ -213,3 +213,30 @@ fn a_window_is_exposed_as_the_whole_frame() {
         assert_eq!(inside(sim), inside(full), "{name}");
     }
 }
+
+#[test]
+fn a_black_frame_under_a_cycle_limit_blames_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = rtsim()
+        .args(["simulate", "--arch", "trax-baseline", "--scene", "cornell"])
+        .args(["--width", "16", "--height", "16", "--cycle-limit", "500"])
+        .args(["--set", "arch.trax.tms=2", "--out"])
+        .arg(dir.path().join("o"))
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("`sim.cycle_limit` = 500") && !e.contains("closed geometry"),
+        "{e}"
+    );
+}
+
+#[test]
+fn bench_sim_refuses_an_out_it_would_ignore() {
+    let e = fails(rtsim().args(["bench-sim", "--out", "somewhere"]));
+    assert!(
+        e.contains("writes no files") && e.contains("somewhere"),
+        "{e}"
+    );
+}

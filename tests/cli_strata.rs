@@ -52,6 +52,16 @@ fn simulate_renders_the_functional_image_and_repeats_exactly() {
         fs::read(a.join("render.png")).unwrap(),
         fs::read(render.join("render.png")).unwrap()
     );
+    // No cycles belong to one pixel on STRaTA: its heat map is the pixels' nodes visited, the
+    // functional render's (it was one flat colour).
+    assert!(
+        stdout.contains("heat map         nodes visited"),
+        "{stdout}"
+    );
+    assert_eq!(
+        fs::read(a.join("heatmap.png")).unwrap(),
+        fs::read(render.join("heatmap.png")).unwrap()
+    );
     simulate(&b, &[]);
     assert_eq!(
         fs::read(a.join("stats.json")).unwrap(),
