@@ -117,33 +117,89 @@ enum Phase {
 /// record accesses), the path record, push, pop and a step's two blocks.
 const QUEUE: usize = 2 * rtsim_trace::workload::KERNELS + 3 + 8;
 
+/// A TP's STRaTA work. `repr(C)` keeps what every `next` reads (the queue's position, the
+/// phase, the ray and its counters) together at the front, in the first three host cache
+/// lines: the fast engine visits up to 4,096 TPs between two visits to one, so each visit
+/// starts with host cache misses, one per line touched.
+/// Host cache lines at the front of a [`Tp`] that the fast engine prefetches: the fields up
+/// to the queue, and the queue's first two blocks.
+const TP_HOT_LINES: usize = (std::mem::offset_of!(Tp, queue) + 2 * size_of::<Run>()).div_ceil(64);
+
 #[derive(Clone, Debug)]
+#[repr(C, align(64))]
 struct Tp {
-    phase: Phase,
-    queue: [Run; QUEUE],
     qlen: u8,
     qpos: u8,
-    counter: Option<u32>,
+    phase: Phase,
+    /// The TP holds a ray of its TM's mode (or is still filling).
+    held: bool,
+    halt: bool,
+    /// The held ray's kind, as its record carries it.
+    kind: u8,
+    /// The treelet (buffer) the ray was popped from.
+    treelet: u32,
     /// The path whose ray (or shading) the TP runs.
     path: Option<u32>,
-    /// The ray being traversed, and the treelet (buffer) it was popped from.
-    trav: Option<TraversalState>,
-    treelet: u32,
+    counter: Option<u32>,
+    /// The ray being traversed.
+    trav: Option<State>,
+    /// The held ray's counters: its path's, moved here at the pop and back at the push (so a
+    /// step need not reach the path table, a host cache miss per step).
+    counters: RayCounters,
+    queue: [Run; QUEUE],
     /// The ray popped, delivered by the pop access.
     popped: Option<[u8; 48]>,
     /// The ray to push and its buffer, consumed by the push access.
     outgoing: Option<(u32, [u8; 48])>,
-    /// The TP holds a ray of its TM's mode (or is still filling).
-    held: bool,
-    halt: bool,
+}
+
+/// A slot of the path table. `repr(C)`: a pop and a push read and write only the front
+/// (whether the slot is live, and the ray's counters), one host cache line.
+#[derive(Clone, Debug)]
+#[repr(C, align(64))]
+struct Path {
+    live: bool,
+    counters: RayCounters,
+    nodes: u32,
+    /// The path and its current ray (`None` while the slot is free).
+    body: Option<PathBody>,
 }
 
 #[derive(Clone, Debug)]
-struct Path {
+struct PathBody {
     state: PathState,
     job: RayJob,
-    counters: RayCounters,
-    nodes: u32,
+}
+
+impl Path {
+    fn free() -> Path {
+        Path {
+            live: false,
+            counters: RayCounters::default(),
+            nodes: 0,
+            body: None,
+        }
+    }
+}
+
+// The host-cache layout the `Tp` and `Path` docs promise, checked when compiling: what a
+// step reads of its TP lies in the lines the engine prefetches, and a pop or push reaches
+// one line of the path table (moving a field would change no result, only the speed).
+const _: () = {
+    use std::mem::offset_of;
+    assert!(align_of::<Tp>() == 64 && align_of::<Path>() == 64);
+    assert!(TP_HOT_LINES <= 4);
+    assert!(offset_of!(Tp, counters) + size_of::<RayCounters>() <= offset_of!(Tp, queue));
+    assert!(offset_of!(Tp, trav) < offset_of!(Tp, queue));
+    assert!(offset_of!(Path, live) == 0);
+    assert!(offset_of!(Path, counters) + size_of::<RayCounters>() <= 64);
+};
+
+/// The live path in slot `id` (a model bug if it is free).
+fn live(paths: &mut [Path], id: u32) -> &mut Path {
+    let p = &mut paths[id as usize];
+    assert!(p.live, "path slot {id} is free (a model bug)");
+    p
 }
 
 #[derive(Clone, Debug)]
@@ -171,7 +227,7 @@ pub struct StrataSource<'a> {
     rr_cursor: Option<u32>,
     tms: Vec<Tm>,
     tps: Vec<Tp>,
-    paths: Vec<Option<Path>>,
+    paths: Vec<Path>,
     n_paths: u32,
     fill_next: u32,
     pixel_next: u32,
@@ -253,11 +309,13 @@ impl<'a> StrataSource<'a> {
             counter: None,
             path: None,
             trav: None,
+            counters: RayCounters::default(),
             treelet: 0,
             popped: None,
             outgoing: None,
             held: true,
             halt: false,
+            kind: 0,
         };
         let facts = StrataFacts {
             layout: Some(*stream.layout()),
@@ -285,7 +343,7 @@ impl<'a> StrataSource<'a> {
                 trax.tms as usize
             ],
             tps: vec![tp; tps],
-            paths: vec![None; n_paths as usize],
+            paths: vec![Path::free(); n_paths as usize],
             n_paths,
             fill_next: 0,
             pixel_next: n_paths,
@@ -361,8 +419,8 @@ impl<'a> StrataSource<'a> {
         self.queue_shading(tp, &r);
         match r.next {
             Next::Trace(job) => {
-                let p = self.paths[id as usize].as_mut().expect("a live path");
-                p.job = job;
+                let p = live(&mut self.paths, id);
+                p.body.as_mut().expect("a live path has a body").job = job;
                 p.counters = RayCounters::default();
                 let TraversalState::BitStack(s) = self.frame.tracer.start(&job.ray, job.query)
                 else {
@@ -385,9 +443,14 @@ impl<'a> StrataSource<'a> {
                 }
             }
             Next::Done(color) => {
-                let p = self.paths[id as usize].as_ref().expect("a live path");
+                let p = live(&mut self.paths, id);
                 *done = Some(PixelDone {
-                    pixel: p.state.pixel(),
+                    pixel: p
+                        .body
+                        .as_ref()
+                        .expect("a live path has a body")
+                        .state
+                        .pixel(),
                     color,
                     nodes_visited: p.nodes,
                 });
@@ -412,22 +475,30 @@ impl<'a> StrataSource<'a> {
     ) -> Result<(), TimedError> {
         let pixel = self.frame.pixels[v as usize];
         let (state, r) = self.frame.integ.begin(pixel);
-        self.paths[id as usize] = Some(Path {
-            state,
-            // Replaced by the first `Next::Trace` before anything reads it.
-            job: RayJob {
-                id: rtsim_trace::RayId {
-                    pixel,
-                    sample: 0,
-                    segment: 0,
-                    kind: rtsim_trace::RayKind::Primary,
-                },
-                ray: rtsim_core::Ray::new(rtsim_core::Vec3::ZERO, rtsim_core::Vec3::ONE, 0.0, 0.0),
-                query: rtsim_trace::Query::Closest,
-            },
+        self.paths[id as usize] = Path {
+            live: true,
             counters: RayCounters::default(),
             nodes: 0,
-        });
+            body: Some(PathBody {
+                state,
+                // Replaced by the first `Next::Trace` before anything reads it.
+                job: RayJob {
+                    id: rtsim_trace::RayId {
+                        pixel,
+                        sample: 0,
+                        segment: 0,
+                        kind: rtsim_trace::RayKind::Primary,
+                    },
+                    ray: rtsim_core::Ray::new(
+                        rtsim_core::Vec3::ZERO,
+                        rtsim_core::Vec3::ONE,
+                        0.0,
+                        0.0,
+                    ),
+                    query: rtsim_trace::Query::Closest,
+                },
+            }),
+        };
         self.then(tp, id, r, done)
     }
 
@@ -494,28 +565,29 @@ impl<'a> StrataSource<'a> {
         // The state is stepped where it lies (moving it out and back copied the whole
         // traversal state, the largest variant's stack included, every step).
         let step = {
-            let ts = self.tps[tp].trav.as_mut().expect("a ray in flight");
-            let p = self.paths[id as usize].as_mut().expect("a live path");
-            tracer.step(ts, &mut p.counters)
+            let w = &mut self.tps[tp];
+            let ts = w.trav.as_mut().expect("a ray in flight");
+            tracer.step_bit_stack(ts, &mut w.counters)
         };
         self.step_runs(tp, &step);
-        let Some(TraversalState::BitStack(s)) = &self.tps[tp].trav else {
-            return Err(FlowError::NotBitStack.into());
-        };
+        let s = self.tps[tp].trav.as_ref().expect("a ray in flight");
         let finished = s.is_done();
         let b = self.tps[tp].treelet;
         let to = match step {
             Step::Done(h) => {
-                self.tps[tp].trav = None;
-                let p = self.paths[id as usize].as_mut().expect("a live path");
+                let w = &mut self.tps[tp];
+                w.trav = None;
+                let counters = w.counters;
+                let p = live(&mut self.paths, id);
+                let body = p.body.as_mut().expect("a live path has a body");
                 let result = TraceResult::from_slot_hit(tracer, h);
                 stats
-                    .kind_mut(p.job.id.kind)
-                    .record(&p.counters, result.hit.is_hit());
+                    .kind_mut(body.job.id.kind)
+                    .record(&counters, result.hit.is_hit());
                 *rays += 1;
-                p.nodes = p.nodes.saturating_add(p.counters.nodes_visited);
-                let job = p.job;
-                let r = self.frame.integ.resume(&mut p.state, &job, &result);
+                p.nodes = p.nodes.saturating_add(counters.nodes_visited);
+                let job = body.job;
+                let r = self.frame.integ.resume(&mut body.state, &job, &result);
                 self.push_run(tp, Run::new(self.sp.path_read));
                 return self.then(tp, id, r, done);
             }
@@ -538,13 +610,10 @@ impl<'a> StrataSource<'a> {
                 1 => self.facts.pushes_to_triangles += 1,
                 _ => self.facts.pushes_from_triangles += 1,
             }
-            let kind = self.paths[id as usize]
-                .as_ref()
-                .expect("a live path")
-                .job
-                .id
-                .kind as u8;
-            let rec = s.to_record(id, kind).map_err(FlowError::from)?;
+            live(&mut self.paths, id).counters = self.tps[tp].counters;
+            let rec = s
+                .to_record(id, self.tps[tp].kind)
+                .map_err(FlowError::from)?;
             self.tps[tp].trav = None;
             self.push_run(tp, Run::new(self.sp.push));
             self.push_run(tp, Run::new(self.sp.pop));
@@ -590,7 +659,7 @@ impl<'a> StrataSource<'a> {
                         w.phase = Phase::Pop;
                         self.begin(tp, id, v, done)?;
                     } else {
-                        self.paths[id as usize] = None;
+                        self.paths[id as usize] = Path::free();
                         w.phase = Phase::Pop;
                         self.push_run(tp, Run::new(self.sp.pop));
                     }
@@ -601,9 +670,11 @@ impl<'a> StrataSource<'a> {
                         return Ok(None);
                     }
                     let rec = w.popped.take().expect("the pop has answered");
-                    let (state, id, _) = State::from_record(&rec).map_err(FlowError::from)?;
+                    let (state, id, kind) = State::from_record(&rec).map_err(FlowError::from)?;
                     w.path = Some(id);
-                    w.trav = Some(TraversalState::BitStack(state));
+                    w.trav = Some(state);
+                    w.kind = kind;
+                    w.counters = live(&mut self.paths, id).counters;
                     w.phase = Phase::Ray;
                     // A node treelet's box tests need the inverse direction, which the record
                     // does not hold (recomputed on load, `bitstack` docs).
@@ -725,6 +796,23 @@ impl<'a> StrataSource<'a> {
 }
 
 impl Source for StrataSource<'_> {
+    /// The lines every `next` and stream access of TP `tp` reads: the front of its [`Tp`]
+    /// (queue position, phase, ray, counters and the queue's first blocks).
+    #[inline(always)]
+    fn prefetch(&self, tp: usize) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let w = self.tps.as_ptr().wrapping_add(tp) as *const i8;
+            for l in 0..TP_HOT_LINES {
+                // SAFETY: prefetching is a hint and never faults, even for a bad address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(w.wrapping_add(64 * l)) };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = tp;
+    }
+
     fn first_run(&self) -> Run {
         Run::new(self.sp.program.next_pixel)
     }

@@ -218,6 +218,13 @@ impl Tracer {
         })
     }
 
+    /// [`Tracer::step`] for a `bit-stack` state held on its own (without the
+    /// [`TraversalState`] around it, which is as large as the largest variant's stack).
+    #[inline]
+    pub fn step_bit_stack(&self, s: &mut bitstack::State, c: &mut RayCounters) -> Step {
+        with_data!(self, d => bitstack::step(&d, s, c))
+    }
+
     /// Run a stepped traversal to its end: the slot-level result.
     #[inline]
     pub fn run_stepped(&self, ray: &Ray, query: Query, c: &mut RayCounters) -> SlotHit {
