@@ -357,6 +357,21 @@ struct Flow<'a> {
 
 /// Per triangle slot: its leaf, and whether it is the leaf's last (after which a ray returns
 /// from the triangle treelet to the leaf's node treelet).
+/// The job a path holds from its start until its first `Next::Trace` replaces it (nothing
+/// reads it in between).
+pub(crate) fn placeholder_job(pixel: u32) -> RayJob {
+    RayJob {
+        id: rtsim_trace::RayId {
+            pixel,
+            sample: 0,
+            segment: 0,
+            kind: rtsim_trace::RayKind::Primary,
+        },
+        ray: rtsim_core::Ray::new(Vec3::ZERO, Vec3::ONE, 0.0, 0.0),
+        query: rtsim_trace::Query::Closest,
+    }
+}
+
 pub(crate) fn leaf_maps(bvh: &rtsim_bvh::Bvh) -> (Vec<u32>, Vec<bool>) {
     let slots = bvh.prim_ids.len();
     let mut leaf_of_slot = vec![u32::MAX; slots];
@@ -484,16 +499,7 @@ impl Flow<'_> {
         self.paths[id] = Some(Path {
             state,
             // Replaced by the first `Next::Trace` before anything reads it.
-            job: RayJob {
-                id: rtsim_trace::RayId {
-                    pixel,
-                    sample: 0,
-                    segment: 0,
-                    kind: rtsim_trace::RayKind::Primary,
-                },
-                ray: rtsim_core::Ray::new(Vec3::ZERO, Vec3::ONE, 0.0, 0.0),
-                query: rtsim_trace::Query::Closest,
-            },
+            job: placeholder_job(pixel),
             counters: RayCounters::default(),
             nodes: 0,
         });

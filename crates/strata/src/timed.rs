@@ -482,21 +482,7 @@ impl<'a> StrataSource<'a> {
             body: Some(PathBody {
                 state,
                 // Replaced by the first `Next::Trace` before anything reads it.
-                job: RayJob {
-                    id: rtsim_trace::RayId {
-                        pixel,
-                        sample: 0,
-                        segment: 0,
-                        kind: rtsim_trace::RayKind::Primary,
-                    },
-                    ray: rtsim_core::Ray::new(
-                        rtsim_core::Vec3::ZERO,
-                        rtsim_core::Vec3::ONE,
-                        0.0,
-                        0.0,
-                    ),
-                    query: rtsim_trace::Query::Closest,
-                },
+                job: crate::flow::placeholder_job(pixel),
             }),
         };
         self.then(tp, id, r, done)
