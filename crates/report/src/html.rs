@@ -85,6 +85,15 @@ pub fn td(s: &str) -> String {
     format!("<td>{}</td>", escape(s))
 }
 
+/// A cell of ours spanning `span` columns that says why the whole row has no values (a
+/// paper scene we do not have), instead of repeating it in every column.
+pub fn td_missing_row(s: &str, span: usize) -> String {
+    format!(
+        "<td class=\"missing\" colspan=\"{span}\">{}</td>",
+        escape(s)
+    )
+}
+
 /// A header cell spanning `span` columns.
 pub fn th(s: &str, span: usize) -> String {
     if span > 1 {

@@ -10,7 +10,7 @@
 //!   counts.
 
 use crate::chart::{self, BarSeries, Body, Chart, Scale, Series, bytes_label, palette};
-use crate::html::{Section, Val, fixed, significant, table, td, td_val, th};
+use crate::html::{Section, Val, fixed, significant, table, td, td_missing_row, td_val, th};
 use crate::paper::{self, DramCols};
 use crate::table::Row;
 use crate::{Arch, Figure, Results, SCENE_COLUMN};
@@ -530,14 +530,23 @@ fn dram_paper(c: &DramCols, baseline_j: Option<f64>) -> String {
     .collect()
 }
 
-fn dram_ours(row: Option<&&Row>, missing: &str) -> String {
+/// Our five Table 1 cells from `row`; with `baseline_j` (STRaTA's side, when the baseline ran)
+/// the DRAM energy also gets its percentage of the baseline's, as the paper prints it.
+fn dram_ours(row: Option<&&Row>, baseline_j: Option<f64>, missing: &str) -> String {
     let v = |col: &str| row.and_then(|r| Val::mean(&[r], col));
+    let energy = |x: f64| match baseline_j {
+        Some(b) if b > 0.0 => format!("{} ({:.0}%)", significant(x, 3), 100.0 * x / b),
+        _ => significant(x, 3),
+    };
     td_val(&v(DRAM_ACCESSES), |x| significant(x / 1e6, 3), missing)
         + &td_val(&v(ROW_HIT_RATE), |x| fixed(100.0 * x, 0), missing)
         + &td_val(&v(READ_LATENCY), |x| fixed(x, 0), missing)
         + &td_val(&v(MS_PER_FRAME), |x| fixed(x, 3), missing)
-        + &td_val(&v(DRAM_ENERGY), |x| significant(x, 3), missing)
+        + &td_val(&v(DRAM_ENERGY), energy, missing)
 }
+
+/// The text of a row of ours for a paper scene that `../shared/scenes` does not have.
+const NO_SCENE: &str = "no scene: not among the benchmark scenes (../shared/scenes), so not run";
 
 /// Table 1: DRAM characteristics and ms/frame per scene, baseline and STRaTA.
 pub fn table1(r: &Results) -> String {
@@ -580,28 +589,30 @@ pub fn table1(r: &Results) -> String {
                     + &dram_paper(s, Some(b.dram_energy_j)),
             ));
         }
-        let missing = if ours.is_some() {
-            "not run"
-        } else {
-            "no scene"
+        let Some(key) = ours else {
+            body.push((
+                "ours".to_string(),
+                td(&name) + &td("rtsim") + &td_missing_row(NO_SCENE, 2 * cols.len()),
+            ));
+            continue;
         };
-        let key = ours.clone().unwrap_or_default();
+        let b = base.get(&key);
+        let baseline_j = b
+            .and_then(|r| Val::mean(&[r], DRAM_ENERGY))
+            .map(|v| v.value);
         body.push((
             "ours".to_string(),
-            td(&ours
-                .clone()
-                .map(|o| format!("{name} ({o})"))
-                .unwrap_or(name))
+            td(&format!("{name} ({key})"))
                 + &td("rtsim")
-                + &dram_ours(base.get(&key), missing)
-                + &dram_ours(strata.get(&key), missing),
+                + &dram_ours(b, None, "not run")
+                + &dram_ours(strata.get(&key), baseline_j, "not run"),
         ));
     }
     table(
         "strata-table1",
         "STRaTA Table 1: DRAM accesses, row buffer hit rate, average read latency (GPU cycles), ms/frame and DRAM energy per frame, \
          baseline (4 MB L2) against STRaTA (4 MB stream memory + 512 KB L2). Ours: per scene, the 4 MB run with the most TMs (quick runs use fewer TMs and smaller frames, so absolute values differ); \
-         our DRAM energy is printed in J with three significant digits.",
+         our DRAM energy is printed in J with three significant digits, STRaTA's with its percentage of our baseline's.",
         &head,
         &body,
     )
@@ -654,12 +665,14 @@ pub fn table3(r: &Results) -> String {
             .collect::<String>();
             body.push(("paper".to_string(), td(&name) + &td("paper") + &cells));
         }
-        let missing = if ours.is_some() {
-            "not run"
-        } else {
-            "no scene"
+        let Some(key) = ours else {
+            body.push((
+                "ours".to_string(),
+                td(&name) + &td("rtsim") + &td_missing_row(NO_SCENE, 5),
+            ));
+            continue;
         };
-        let key = ours.clone().unwrap_or_default();
+        let missing = "not run";
         let (b, s) = (base.get(&key), strata.get(&key));
         let v = |row: Option<&&Row>, col: &str| row.and_then(|r| Val::mean(&[r], col));
         let e = |x: f64| significant(x, 3);
@@ -673,10 +686,7 @@ pub fn table3(r: &Results) -> String {
         };
         body.push((
             "ours".to_string(),
-            td(&ours
-                .clone()
-                .map(|o| format!("{name} ({o})"))
-                .unwrap_or(name))
+            td(&format!("{name} ({key})"))
                 + &td("rtsim")
                 + &td_val(&v(b, RF_ENERGY), e, missing)
                 + &td_val(&v(b, ICACHE_ENERGY), e, missing)
@@ -778,8 +788,29 @@ mod tests {
         assert!(html.contains("<td>39</td>"));
         assert!(html.contains("data-col=\"trax.ms_per_frame\" data-points=\"2\" data-value=\"3\""));
         assert!(html.contains("not run"));
-        // A paper scene we do not have.
-        assert!(html.contains("no scene"));
+        // A paper scene we do not have: one cell across the row, not one per column.
+        assert!(html.contains("<td class=\"missing\" colspan=\"10\">no scene"));
+        assert_eq!(
+            html.matches("no scene").count(),
+            5,
+            "Fairy, Buddha, Buddha Box, Sodahall, San Miguel"
+        );
+        assert!(table3(&r).contains("<td class=\"missing\" colspan=\"5\">no scene"));
+    }
+
+    #[test]
+    fn table1_gives_strata_dram_energy_as_a_share_of_the_baseline() {
+        let r = results(vec![
+            trax_row(0, Arch::TraxBaseline, "sibenik", 128.0, MB4, 2.0),
+            trax_row(1, Arch::Strata, "sibenik", 128.0, MB4, 1.5),
+        ]);
+        let html = table1(&r);
+        // Every column of the fake rows is x, so the energies are 2 J and 1.5 J.
+        assert!(html.contains(">1.50 (75%)</td>"), "{html}");
+        assert!(
+            html.contains(">2.00</td>"),
+            "the baseline's own cell has no share"
+        );
     }
 
     #[test]
