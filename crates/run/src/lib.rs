@@ -253,6 +253,18 @@ fn upper_layers(
     }
     for s in &inputs.sets {
         l.set(s)?;
+        // A `--set` that contradicts a typed flag (`--arch functional --set
+        // arch.preset=strata`) is a mistake on the command line, not an override: say so.
+        let key = s.split_once('=').map_or("", |(k, _)| k.trim());
+        let flag = inputs.flags.iter().find(|(k, _)| k == key);
+        if let Some((_, flag)) = flag.filter(|(_, v)| l.get(key) != Some(v)) {
+            return Err(ConfigError::BadSet {
+                arg: rtsim_core::text::echo(s),
+                message: format!(
+                    "`{key}` is also given by its command-line flag (= {flag}); give it once"
+                ),
+            });
+        }
     }
     Ok(l)
 }

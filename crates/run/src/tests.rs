@@ -182,3 +182,20 @@ fn the_trax_preset_sets_its_sections_and_validates_the_chip() {
     // The functional arch does not care which traversal runs.
     build(&["trace.traversal=bit-stack"]).unwrap();
 }
+
+#[test]
+fn a_set_contradicting_a_flag_is_an_error_naming_both() {
+    let mut i = inputs(&["arch.preset=strata"]);
+    i.flag("arch.preset", "functional");
+    let e = layers(&i, None).unwrap_err().to_string();
+    assert!(
+        e.contains("--set `arch.preset=strata`") && e.contains("\"functional\""),
+        "{e}"
+    );
+    // The same value twice, or a flag and a set of different keys, are fine.
+    let mut i = inputs(&["arch.preset = \"strata\"", "workload.width=8"]);
+    i.flag("arch.preset", "strata")
+        .flag("workload.height", 8i64);
+    let c: RunConfig = layers(&i, None).unwrap().build().unwrap();
+    assert_eq!(c.arch.preset, "strata");
+}
