@@ -44,10 +44,18 @@ pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
     Ok(i)
 }
 
-/// Resolve the configuration and load the scene, printing what loading noticed to stderr.
+/// Resolve the configuration and load the scene, printing what loading noticed to stderr,
+/// each note once per process (`rtsim compare` loads the scene once per architecture).
 pub fn resolve(args: &SceneArgs, flags: &[Flag]) -> Result<Resolved> {
+    static SAID: std::sync::Mutex<std::collections::BTreeSet<String>> =
+        std::sync::Mutex::new(std::collections::BTreeSet::new());
     let inputs = inputs(args, flags)?;
     Ok(rtsim_run::resolve(&inputs, &mut |line| {
-        eprintln!("note: {}", rtsim_core::text::escape_controls(line))
+        let first = SAID
+            .lock()
+            .map_or(true, |mut said| said.insert(line.to_string()));
+        if first {
+            eprintln!("note: {}", rtsim_core::text::escape_controls(line))
+        }
     })?)
 }

@@ -99,6 +99,53 @@ fn compare_writes_tables_1_and_3() {
 }
 
 #[test]
+fn compare_says_each_scene_note_once() {
+    // A quad and a zero-area face: loading drops one triangle and says so, once, though
+    // `compare` loads the scene for each architecture.
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("m.obj");
+    fs::write(
+        &obj,
+        "v 0 0 -1\nv 1 0 -1\nv 1 1 -1\nv 0 1 -1\nf 1 2 3 4\nf 1 1 2\n",
+    )
+    .unwrap();
+    let out = rtsim()
+        .args([
+            "compare",
+            "--arch",
+            "trax-baseline",
+            "--arch",
+            "strata",
+            "--scene",
+        ])
+        .arg(&obj)
+        .args(SMALL)
+        .arg("--out")
+        .arg(dir.path().join("cmp"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert_eq!(stderr.matches("dropped 1 zero-area").count(), 1, "{stderr}");
+}
+
+#[test]
+fn a_set_contradicting_the_arch_flag_is_an_error() {
+    let e = fails(
+        rtsim()
+            .args([
+                "simulate",
+                "--arch",
+                "functional",
+                "--set",
+                "arch.preset=strata",
+            ])
+            .args(["--width", "4", "--height", "4"]),
+    );
+    assert!(e.contains("arch.preset") && e.contains("functional"), "{e}");
+}
+
+#[test]
 fn bench_sim_runs_strata_and_bad_settings_name_their_key() {
     let stdout = ok(rtsim()
         .args([
