@@ -85,7 +85,9 @@ impl Ring {
         debug_assert!(c >= now);
         let fresh = self.fresh[lane];
         if c >= fresh {
-            if c == fresh && self.width == 16 {
+            // Not when `c` is a whole ring ahead: its slot then holds a live cycle, and
+            // `clear_to` grows the ring instead.
+            if c == fresh && c - now < self.slots as u64 && self.width == 16 {
                 // The usual stale case, one new row of the usual width (16 unit classes or
                 // banks): cleared inline, without `clear_to`'s call and `memset`.
                 let o = self.at(lane, c);
@@ -1046,6 +1048,28 @@ mod tests {
         w.add(46, 0);
         w.add(41, 2);
         assert_eq!(w.next(), Some(41));
+    }
+
+    #[test]
+    fn a_row_booked_next_a_whole_ring_ahead_grows_the_ring() {
+        // Rows booked one after another up to a ring ahead of now: the next one's slot holds
+        // the live cycle `now`, so the ring must grow rather than clear it (the inline path
+        // for the next row of a lane once cleared it).
+        for counts in [16, 13] {
+            let mut r = Ring::new(1, counts, 4);
+            for c in 10..14 {
+                let at = r.row(0, c, 10);
+                r.data[at] = (c - 9) as u8;
+            }
+            let at = r.row(0, 14, 10);
+            assert_eq!(r.data[at], 0, "width {}", r.width);
+            r.data[at] = 5;
+            assert_eq!(r.slots, 8, "width {}", r.width);
+            for c in 10..15 {
+                let at = r.row(0, c, 10);
+                assert_eq!(r.data[at], (c - 9) as u8, "cycle {c}, width {}", r.width);
+            }
+        }
     }
 
     #[test]
