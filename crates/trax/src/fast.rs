@@ -87,11 +87,15 @@ impl Ring {
         if c >= fresh {
             // Not when `c` is a whole ring ahead: its slot then holds a live cycle, and
             // `clear_to` grows the ring instead.
-            if c == fresh && c - now < self.slots as u64 && self.width == 16 {
-                // The usual stale case, one new row of the usual width (16 unit classes or
-                // banks): cleared inline, without `clear_to`'s call and `memset`.
+            if c == fresh && c - now < self.slots as u64 && (self.width == 16 || self.width == 4) {
+                // The usual stale case, one new row of a usual width (16 unit classes, or 16
+                // banks' packed counts): cleared inline, without `clear_to`'s call and `memset`.
                 let o = self.at(lane, c);
-                self.data[o..o + 16].fill(0);
+                if self.width == 16 {
+                    self.data[o..o + 16].fill(0);
+                } else {
+                    self.data[o..o + 4].fill(0);
+                }
                 self.fresh[lane] = c + 1;
                 return o;
             }
@@ -123,17 +127,40 @@ impl Ring {
 
 /// The issue-slot calendar: per TM, the slots used per unit class; per instruction cache,
 /// the fetches per bank.
+///
+/// With at most 3 fetches per bank and cycle (the default is 2), a bank's count takes two
+/// bits and four banks share a byte, so the default 16 banks' row is 4 bytes instead of 16.
+/// The bank rows are most of the calendar's memory (4 instruction caches per TM against one
+/// row of units), and a new row is a host cache miss: a quarter of the bytes is a quarter of
+/// the misses. Counts never exceed the cap, so a count never carries into its neighbour.
 #[derive(Debug)]
 pub(crate) struct Calendar {
     units: Ring,
     banks: Ring,
+    /// Bank `b`'s count is bits `(b & sub) * bits ..` of byte `b >> log` of the row.
+    bank_log: u32,
+    bank_sub: usize,
+    bank_bits: u32,
+    bank_mask: u8,
 }
 
 impl Calendar {
-    pub(crate) fn new(tms: usize, icaches: usize, banks: usize, slots: usize) -> Self {
+    pub(crate) fn new(
+        tms: usize,
+        icaches: usize,
+        banks: usize,
+        fetch_cap: u8,
+        slots: usize,
+    ) -> Self {
+        let packed = fetch_cap <= 3;
+        let (log, bits) = if packed { (2, 2) } else { (0, 0) };
         Calendar {
             units: Ring::new(tms, UNIT_CLASSES, slots),
-            banks: Ring::new(tms * icaches, banks, slots),
+            banks: Ring::new(tms * icaches, banks.div_ceil(1 << log), slots),
+            bank_log: log,
+            bank_sub: (1 << log) - 1,
+            bank_bits: bits,
+            bank_mask: if packed { 3 } else { u8::MAX },
         }
     }
 
@@ -159,6 +186,10 @@ impl Calendar {
         let cls = d.class as usize;
         let cap = if unit { caps[cls] } else { 0 };
         let bank = d.bank as usize;
+        let (bank_byte, shift) = (
+            bank >> self.bank_log,
+            (bank & self.bank_sub) as u32 * self.bank_bits,
+        );
         let mut c = e;
         let (mut unit_busy, mut fetch_busy) = (0u64, 0u64);
         loop {
@@ -173,8 +204,8 @@ impl Calendar {
             } else {
                 None
             };
-            let b = self.banks.row(lane, c, t) + bank;
-            if self.banks.data[b] >= fetch_cap {
+            let b = self.banks.row(lane, c, t) + bank_byte;
+            if (self.banks.data[b] >> shift) & self.bank_mask >= fetch_cap {
                 fetch_busy += 1;
                 c += 1;
                 continue;
@@ -182,7 +213,7 @@ impl Calendar {
             if let Some(u) = u {
                 self.units.data[u] += 1;
             }
-            self.banks.data[b] += 1;
+            self.banks.data[b] += 1 << shift;
             break;
         }
         if unit_busy + fetch_busy > 0 {
@@ -755,6 +786,7 @@ pub fn run<S: Source>(
         chip.cfg.tms as usize,
         chip.cfg.icaches_per_tm as usize,
         chip.cfg.icache_banks as usize,
+        chip.fetch_cap,
         256,
     );
     let mut w = Waits {
@@ -1054,8 +1086,8 @@ mod tests {
     fn a_row_booked_next_a_whole_ring_ahead_grows_the_ring() {
         // Rows booked one after another up to a ring ahead of now: the next one's slot holds
         // the live cycle `now`, so the ring must grow rather than clear it (the inline path
-        // for the next row of a lane once cleared it).
-        for counts in [16, 13] {
+        // for the next row of a lane once cleared it: every row width it takes is checked).
+        for counts in [16, 4, 13] {
             let mut r = Ring::new(1, counts, 4);
             for c in 10..14 {
                 let at = r.row(0, c, 10);

@@ -184,3 +184,34 @@ fn two_tps_contend_for_one_fetch_bank() {
     cfg.fetches_per_bank = 2;
     assert_eq!(both(&cfg, &block, &[true, true]).report.cycles, 3);
 }
+
+#[test]
+fn fetch_caps_packed_and_unpacked_match_the_reference() {
+    // The fast engine keeps up to 3 fetches per bank in two bits (four banks a byte) and more
+    // in a byte per bank: either way it must equal the reference, and a larger cap can only
+    // shorten the run. Eight TPs on one instruction cache of one or two banks contend hard.
+    let o = regs::ORG;
+    let block = [
+        inst(Class::IntAdd, T0, o[0], NO_REG),
+        inst(Class::Bitwise, T0 + 1, o[1], NO_REG),
+        inst(Class::IntAdd, T0 + 2, o[2], NO_REG),
+        inst(Class::Branch, NO_REG, T0 + 2, NO_REG),
+    ];
+    for banks in [1, 2] {
+        let mut cfg = chip(8);
+        cfg.icache_banks = banks;
+        let mut last = (u64::MAX, u64::MAX);
+        for cap in 1..=5 {
+            cfg.fetches_per_bank = cap;
+            let r = both(&cfg, &block, &[true; 8]).report;
+            let stalls = r.tp_cycles.stalls_by_cause["fetch_conflict"];
+            assert!(r.cycles <= last.0 && stalls <= last.1, "cap {cap}: {r:?}");
+            if banks == 1 && cap != 3 {
+                // One bank: 32 fetches at `cap` a cycle, and never under the 8 cycles the
+                // block takes without contention (cap 5).
+                assert_eq!(r.cycles, 32u64.div_ceil(cap as u64).max(8), "cap {cap}");
+            }
+            last = (r.cycles, stalls);
+        }
+    }
+}
