@@ -246,3 +246,28 @@ fn fast_equals_reference_when_the_triangle_pipelines_are_busy() {
         assert_eq!(stream(&f), stream(&r), "limit {limit}");
     }
 }
+
+#[test]
+fn a_tms_per_buffer_cap_at_or_above_the_tm_count_is_no_cap() {
+    // The cap counts the TMs already holding a buffer, and a TM that picks holds none, so
+    // with 3 TMs a cap of 3 (or more) never binds; a cap of 1 does.
+    let w = world(12, 12);
+    let reference = functional(&w, &params(&w));
+    let with = |cap| {
+        let cfg = StrataConfig {
+            tms_per_buffer: cap,
+            ..StrataConfig::default()
+        };
+        run(&w, &cfg, &chip(3, 4), Engine::Fast)
+    };
+    let free = with(0);
+    assert_same(&free, &reference);
+    for cap in [3, 4, 4096] {
+        let o = with(cap);
+        assert_eq!(o.out.report.cycles, free.out.report.cycles, "cap {cap}");
+        assert_eq!(o.strata, free.strata, "cap {cap}");
+    }
+    let one = with(1);
+    assert_same(&one, &reference);
+    assert_ne!(one.strata, free.strata);
+}
