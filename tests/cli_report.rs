@@ -226,3 +226,39 @@ fn bad_input_is_an_error_naming_the_file_and_column() {
         "{e}"
     );
 }
+
+#[test]
+fn a_report_over_two_sweeps_draws_their_rows_together() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = |name: &str, tms: &str| {
+        let exp = tmp.path().join(format!("{name}.toml"));
+        std::fs::write(
+            &exp,
+            format!(
+                "name = \"{name}\"\ncommand = \"simulate\"\n[base]\n\"arch.preset\" = \"trax-baseline\"\n\
+                 \"scene.name\" = \"cornell\"\n\"workload.width\" = 8\n\"workload.height\" = 8\n\
+                 [grid]\n\"arch.trax.tms\" = {tms}\n"
+            ),
+        )
+        .unwrap();
+        let out = tmp.path().join(name);
+        ok(rtsim().arg("sweep").arg(&exp).arg("--out").arg(&out));
+        out
+    };
+    let (a, b) = (sweep("a", "[1, 2]"), sweep("b", "[4]"));
+    let e = fails(rtsim().arg("report").arg(&a).arg(&b));
+    assert!(e.contains("--out is required with 2 RESULTS"), "{e}");
+
+    let out = tmp.path().join("rep");
+    ok(rtsim().arg("report").arg(&a).arg(&b).arg("--out").arg(&out));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("[1] <code>") && html.contains("[2] <code>"));
+    // b's one TM count joins a's two on one curve.
+    let fig7 = std::fs::read_to_string(out.join("figures/strata-fig7.svg")).unwrap();
+    assert_eq!(fig7.matches("<circle").count(), 3, "{fig7}");
+    // Table 1 takes b's 4-TM run, named by its results' number.
+    assert!(
+        html.contains("data-col=\"trax.ms_per_frame\" data-points=\"2:0\""),
+        "{html}"
+    );
+}

@@ -1,9 +1,9 @@
-//! `rtsim report RESULTS [--out DIR]`: the papers' tables and figures from a sweep's merged
-//! results, with the published values beside ours — `report.html` (inline CSS, figures inline
+//! `rtsim report RESULTS... [--out DIR]`: the papers' tables and figures from one or more
+//! sweeps' merged results, with the published values beside ours — `report.html` (inline CSS, figures inline
 //! as SVG) and `figures/NAME.svg` and `.png` for every figure, written as one output set. The
 //! drawing is in `rtsim-report` (`docs/EXPERIMENTS.md`, "Reports").
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 use clap::Args;
 use rtsim_core::output::OutputPlan;
 use rtsim_report::{FIGURE_DIR, PAGE};
@@ -12,31 +12,36 @@ use std::path::PathBuf;
 #[derive(Debug, Args, Clone)]
 pub struct ReportArgs {
     /// A sweep's results directory, or its merged table (results.jsonl or results.csv).
-    pub results: PathBuf,
-    /// Output directory. Default: `report/` in the results directory (beside the table when
-    /// a table is given).
+    /// Several are read as one set of rows (for instance a Figure 7 sweep and Table 1's runs,
+    /// whose 128-TM points it shares); then --out is required.
+    #[arg(required = true, value_name = "RESULTS")]
+    pub results: Vec<PathBuf>,
+    /// Output directory. Default, with one RESULTS: `report/` in the results directory
+    /// (beside the table when a table is given).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
 }
 
 pub fn run(args: ReportArgs) -> Result<()> {
-    let report = rtsim_report::build(&args.results)?;
-    let out = args.out.clone().unwrap_or_else(|| {
-        if args.results.is_dir() {
-            args.results.join("report")
-        } else {
-            args.results
-                .parent()
-                .map(|p| p.join("report"))
-                .unwrap_or_else(|| PathBuf::from("report"))
-        }
-    });
+    let out = match (&args.out, args.results.as_slice()) {
+        (Some(out), _) => out.clone(),
+        (None, [one]) if one.is_dir() => one.join("report"),
+        (None, [one]) => one
+            .parent()
+            .map(|p| p.join("report"))
+            .unwrap_or_else(|| PathBuf::from("report")),
+        (None, several) => bail!(
+            "--out is required with {} RESULTS (the report would otherwise be written into one of them)",
+            several.len()
+        ),
+    };
+    let report = rtsim_report::build_many(&args.results)?;
     let page = out.join(PAGE);
     let figures = out.join(FIGURE_DIR);
     let mut plan = OutputPlan::new();
     plan.dir(&out, "--out").file(&page);
-    if args.results.is_file() {
-        plan.input("RESULTS", &args.results);
+    for results in args.results.iter().filter(|r| r.is_file()) {
+        plan.input("RESULTS", results);
     }
     for (name, _, _) in &report.figures {
         plan.file(figures.join(format!("{name}.svg")))

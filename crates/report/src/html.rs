@@ -37,11 +37,11 @@ impl Section {
     }
 }
 
-/// A value of ours: the mean of `col` over `points`.
+/// A value of ours: the mean of `col` over `points` (their [`Row::id`]s).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Val {
     pub col: String,
-    pub points: Vec<usize>,
+    pub points: Vec<String>,
     pub value: f64,
 }
 
@@ -57,7 +57,7 @@ impl Val {
         }
         Some(Val {
             col: col.to_string(),
-            points: rows.iter().map(|r| r.point).collect(),
+            points: rows.iter().map(|r| r.id()).collect(),
             value: sum / rows.len() as f64,
         })
     }
@@ -67,11 +67,10 @@ impl Val {
 pub fn td_val(v: &Option<Val>, show: impl Fn(f64) -> String, missing: &str) -> String {
     match v {
         Some(v) => {
-            let points: Vec<String> = v.points.iter().map(|p| p.to_string()).collect();
             format!(
                 "<td class=\"ours\" data-col=\"{}\" data-points=\"{}\" data-value=\"{}\">{}</td>",
                 escape(&v.col),
-                points.join(" "),
+                v.points.join(" "),
                 v.value,
                 escape(&show(v.value))
             )
@@ -162,11 +161,35 @@ pub fn page(r: &Results, sections: &[Section], svgs: &[(String, String, Vec<u8>)
             counts.push(format!("{n} × <code>{}</code>", a.preset()));
         }
     }
+    let sources = match r.sources.as_slice() {
+        [one] => format!("<code>{}</code>", escape(&one.display().to_string())),
+        several => {
+            let named: Vec<String> = several
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let n = r
+                        .rows
+                        .iter()
+                        .filter(|(_, row)| row.source == Some(i + 1))
+                        .count();
+                    format!(
+                        "[{}] <code>{}</code> ({n})",
+                        i + 1,
+                        escape(&p.display().to_string())
+                    )
+                })
+                .collect();
+            format!(
+                "{} (a value's points are named <i>K</i>:<i>point</i>, <i>K</i> the results' number)",
+                named.join(", ")
+            )
+        }
+    };
     s.push_str(&format!(
-        "<p>Results: <code>{}</code>, {} finished points ({}). Rows marked <i>paper</i> are the published values; \
+        "<p>Results: {sources}, {} finished points ({}). Rows marked <i>paper</i> are the published values; \
          rows marked <i>rtsim</i> are ours (hover a value for the column it came from). \
          <span class=\"missing\">Red italics</span>: not in these results.</p>\n",
-        escape(&r.source.display().to_string()),
         r.rows.len(),
         if counts.is_empty() { "none".to_string() } else { counts.join(", ") }
     ));
@@ -213,11 +236,13 @@ mod tests {
     fn our_cells_carry_their_source_and_exact_value() {
         let mut a = Row {
             point: 2,
+            source: None,
             ..Row::default()
         };
         a.values.insert("x".into(), Cell::Num(1.0));
         let mut b = Row {
             point: 5,
+            source: None,
             ..Row::default()
         };
         b.values.insert("x".into(), Cell::Num(2.5));

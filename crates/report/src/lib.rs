@@ -101,10 +101,11 @@ pub const ARCH_COLUMN: &str = "arch.preset";
 /// The column naming a row's scene.
 pub const SCENE_COLUMN: &str = "scene.name";
 
-/// A checked table: rows with their architecture.
+/// Checked tables: rows with their architecture, from one results directory or table or
+/// several (each row's [`Row::source`] says which, 1-based, when there are several).
 #[derive(Clone, Debug)]
 pub struct Results {
-    pub source: PathBuf,
+    pub sources: Vec<PathBuf>,
     pub rows: Vec<(Arch, Row)>,
 }
 
@@ -155,9 +156,27 @@ impl Results {
             rows.push((arch, row));
         }
         Ok(Results {
-            source: table.source,
+            sources: vec![table.source],
             rows,
         })
+    }
+
+    /// Several checked results as one, in order; with more than one, every row is tagged with
+    /// its results' number (1-based), which the page shows beside its point index.
+    pub fn merge(parts: Vec<Results>) -> Results {
+        let several = parts.len() > 1;
+        let mut all = Results {
+            sources: Vec::new(),
+            rows: Vec::new(),
+        };
+        for (i, part) in parts.into_iter().enumerate() {
+            all.sources.extend(part.sources);
+            all.rows.extend(part.rows.into_iter().map(|(a, mut row)| {
+                row.source = several.then_some(i + 1);
+                (a, row)
+            }));
+        }
+        all
     }
 
     /// Rows of one architecture.
@@ -194,8 +213,17 @@ pub const PAGE: &str = "report.html";
 
 /// Read `results` (a sweep directory or its merged table) and draw the report.
 pub fn build(results: &Path) -> Result<Report, ReportError> {
-    let checked = Results::check(Table::load(results)?)?;
-    render(&checked)
+    build_many(&[results.to_path_buf()])
+}
+
+/// Read several results (sweep directories or merged tables) and draw one report over all
+/// their rows: for instance a Figure 7 sweep together with Table 1's runs at 128 TMs.
+pub fn build_many(results: &[PathBuf]) -> Result<Report, ReportError> {
+    let parts = results
+        .iter()
+        .map(|p| Table::load(p).and_then(Results::check))
+        .collect::<Result<Vec<_>, _>>()?;
+    render(&Results::merge(parts))
 }
 
 /// Draw the report of checked results.

@@ -460,6 +460,7 @@ mod tests {
     fn sgrt_row(point: usize, arch: Arch, cores: f64, kind: &str, mrays: f64) -> (Arch, Row) {
         let mut row = Row {
             point,
+            source: None,
             ..Row::default()
         };
         for c in REQUIRED {
@@ -480,7 +481,7 @@ mod tests {
     #[test]
     fn table4_averages_viewpoints_and_computes_the_ratio() {
         let r = Results {
-            source: "t.csv".into(),
+            sources: vec!["t.csv".into()],
             rows: vec![
                 sgrt_row(0, Arch::SgrtSptrv, 1.0, "primary", 10.0),
                 sgrt_row(1, Arch::SgrtSptrv, 1.0, "primary", 20.0),
@@ -517,7 +518,7 @@ mod tests {
             (a, row)
         };
         let r = Results {
-            source: "t.csv".into(),
+            sources: vec!["t.csv".into()],
             rows: vec![
                 shaded(0, 1024.0, 768.0, 100.0),
                 shaded(1, 1920.0, 1080.0, 80.0),
@@ -534,7 +535,7 @@ mod tests {
         assert!(!t6.contains("data-points=\"0"), "{t6}");
         // The same at `--quick` scale: 64×48 frames are Table 3's, 96×54 ones Table 6's.
         let r = Results {
-            source: "t.csv".into(),
+            sources: vec!["t.csv".into()],
             rows: vec![shaded(0, 64.0, 48.0, 100.0), shaded(1, 96.0, 54.0, 80.0)],
         };
         assert!(!table3(&r).contains("data-points=\"0 1\""));
@@ -549,7 +550,7 @@ mod tests {
             .insert(SCENE_COLUMN.into(), Cell::Text("conference".into()));
         conf.values.insert(FPS.into(), Cell::Num(70.0));
         let r = Results {
-            source: "t.csv".into(),
+            sources: vec!["t.csv".into()],
             rows: vec![shaded(1, 1920.0, 1080.0, 80.0), (a, conf)],
         };
         let t6 = table6(&r);

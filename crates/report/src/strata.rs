@@ -113,6 +113,17 @@ fn num(r: &Row, col: &str) -> f64 {
     r.num(col).unwrap_or(f64::NAN)
 }
 
+/// The frame's width and height (0 where the row does not say).
+fn frame(r: &Row) -> (u64, u64) {
+    let dim = |c| r.num(c).map_or(0, |v| v as u64);
+    (dim("workload.width"), dim("workload.height"))
+}
+
+/// `1024×1024` (not `1024²`: the PNG's font draws `²` as `2`).
+fn frame_label((w, h): (u64, u64)) -> String {
+    format!("{w}×{h}")
+}
+
 /// The L1 hit rate counted as the paper counts it: an access to a line already in flight
 /// (an MSHR merge) is a hit, since the line is not fetched again. None without the columns
 /// or without accesses.
@@ -151,10 +162,14 @@ pub fn stream_energy(r: &Row) -> Option<f64> {
 /// Per scene, the run the one-value-per-scene presentations show (module docs).
 pub fn table_rows(r: &Results, arch: Arch) -> BTreeMap<String, &Row> {
     let mut best: BTreeMap<String, &Row> = BTreeMap::new();
+    // Then the most pixels (the paper's frame is 1024²), then the first results and point.
     let key = |row: &Row| {
+        let (w, h) = frame(row);
         (
             size(arch, row) == paper::STRATA_TABLE_SIZE_BYTES,
             num(row, TMS) as i64,
+            w * h,
+            std::cmp::Reverse(row.source),
             std::cmp::Reverse(row.point),
         )
     };
@@ -167,25 +182,43 @@ pub fn table_rows(r: &Results, arch: Arch) -> BTreeMap<String, &Row> {
     best
 }
 
-/// Curves: rows grouped by (arch, scene, `fixed`), x = `vary`, kept where ≥ 2 x values.
+/// Curves: rows grouped by (arch, scene, frame, `fixed`), x = `vary`, kept where ≥ 2 x
+/// values. The name is the scene's, with the frame's size when the results hold several
+/// (several sweeps read together, say Figure 7 at 256² and at 1024²); of two rows at one x,
+/// the first results' first point is drawn.
 fn curves(
     r: &Results,
     x_of: impl Fn(Arch, &Row) -> f64,
     fixed_of: impl Fn(Arch, &Row) -> f64,
 ) -> Vec<(Arch, String, f64, Vec<&Row>)> {
-    let mut groups: BTreeMap<(Arch, String, u64), Vec<&Row>> = BTreeMap::new();
-    for (a, row) in r.rows.iter().filter(|(a, _)| a.is_trax()) {
+    let trax = || r.rows.iter().filter(|(a, _)| a.is_trax());
+    let frames: std::collections::BTreeSet<_> = trax().map(|(_, row)| frame(row)).collect();
+    // (arch, scene, frame, the fixed value's bits) → rows
+    type Group = (Arch, String, (u64, u64), u64);
+    let mut groups: BTreeMap<Group, Vec<&Row>> = BTreeMap::new();
+    for (a, row) in trax() {
         groups
-            .entry((*a, scene(row).to_string(), fixed_of(*a, row).to_bits()))
+            .entry((
+                *a,
+                scene(row).to_string(),
+                frame(row),
+                fixed_of(*a, row).to_bits(),
+            ))
             .or_default()
             .push(row);
     }
     groups
         .into_iter()
-        .filter_map(|((a, s, f), mut rows)| {
+        .filter_map(|((a, s, fr, f), mut rows)| {
+            let s = if frames.len() > 1 {
+                format!("{s} {}", frame_label(fr))
+            } else {
+                s
+            };
             rows.sort_by(|p, q| {
                 x_of(a, p)
                     .total_cmp(&x_of(a, q))
+                    .then(p.source.cmp(&q.source))
                     .then(p.point.cmp(&q.point))
             });
             rows.dedup_by(|p, q| x_of(a, p) == x_of(a, q));
@@ -746,6 +779,7 @@ mod tests {
     ) -> (Arch, Row) {
         let mut row = Row {
             point,
+            source: None,
             ..Row::default()
         };
         for c in REQUIRED {
@@ -765,7 +799,7 @@ mod tests {
 
     fn results(rows: Vec<(Arch, Row)>) -> Results {
         Results {
-            source: "t.csv".into(),
+            sources: vec!["t.csv".into()],
             rows,
         }
     }
@@ -836,6 +870,89 @@ mod tests {
         assert_eq!(series.len(), 1);
         // Each component is 1/7 of the total in the synthetic rows.
         assert!((series[0].values[0].unwrap() - 100.0 / 7.0).abs() < 1e-9);
+    }
+
+    fn at(mut row: (Arch, Row), w: f64, source: Option<usize>) -> (Arch, Row) {
+        row.1.values.insert("workload.width".into(), Cell::Num(w));
+        row.1.values.insert("workload.height".into(), Cell::Num(w));
+        row.1.source = source;
+        row
+    }
+
+    #[test]
+    fn several_results_keep_frames_apart_and_tables_take_the_larger_frame() {
+        // Figure 7 at 256² (results 1) beside Table 1's runs at 1024² and 128 TMs (results 2).
+        let one = results(vec![
+            at(
+                trax_row(0, Arch::TraxBaseline, "sibenik", 64.0, MB4, 1.0),
+                256.0,
+                None,
+            ),
+            at(
+                trax_row(1, Arch::TraxBaseline, "sibenik", 128.0, MB4, 2.0),
+                256.0,
+                None,
+            ),
+        ]);
+        let two = results(vec![
+            at(
+                trax_row(0, Arch::TraxBaseline, "sibenik", 64.0, MB4, 3.0),
+                1024.0,
+                None,
+            ),
+            at(
+                trax_row(0, Arch::TraxBaseline, "sibenik", 128.0, MB4, 4.0),
+                1024.0,
+                None,
+            ),
+        ]);
+        let r = Results::merge(vec![one, two]);
+        assert_eq!(r.sources.len(), 2);
+        let ids: Vec<String> = r.rows.iter().map(|(_, row)| row.id()).collect();
+        assert_eq!(ids, ["1:0", "1:1", "2:0", "2:0"]);
+        let f7 = figure7(&r);
+        let Body::Lines { series, .. } = &f7.chart.body else {
+            panic!()
+        };
+        let named: Vec<(&str, &[(f64, f64)])> = series
+            .iter()
+            .map(|s| (s.name.as_str(), s.points.as_slice()))
+            .collect();
+        assert_eq!(
+            named,
+            [
+                (
+                    "sibenik 256×256 baseline (4 MB)",
+                    &[(64.0, 1.0), (128.0, 2.0)][..]
+                ),
+                (
+                    "sibenik 1024×1024 baseline (4 MB)",
+                    &[(64.0, 3.0), (128.0, 4.0)][..]
+                ),
+            ]
+        );
+        // Table 1 takes the 128-TM run at the paper's (larger) frame.
+        let t = table_rows(&r, Arch::TraxBaseline);
+        assert_eq!(t["sibenik"].num(MS_PER_FRAME), Some(4.0));
+        // One results: names carry no frame and ids no results' number.
+        let single = results(vec![
+            at(
+                trax_row(0, Arch::TraxBaseline, "sibenik", 64.0, MB4, 1.0),
+                256.0,
+                None,
+            ),
+            at(
+                trax_row(1, Arch::TraxBaseline, "sibenik", 128.0, MB4, 2.0),
+                256.0,
+                None,
+            ),
+        ]);
+        let merged = Results::merge(vec![single]);
+        assert_eq!(merged.rows[0].1.id(), "0");
+        let Body::Lines { series, .. } = &figure7(&merged).chart.body else {
+            panic!()
+        };
+        assert_eq!(series[0].name, "sibenik baseline (4 MB)");
     }
 
     #[test]

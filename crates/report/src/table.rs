@@ -61,10 +61,21 @@ impl Cell {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Row {
     pub point: usize,
+    /// Which results it came from (1-based) when a report reads several; None for one.
+    pub source: Option<usize>,
     pub values: BTreeMap<String, Cell>,
 }
 
 impl Row {
+    /// The row's name on the page: its point index, prefixed `K:` with its results' number
+    /// when the report reads several.
+    pub fn id(&self) -> String {
+        match self.source {
+            Some(k) => format!("{k}:{}", self.point),
+            None => self.point.to_string(),
+        }
+    }
+
     pub fn num(&self, column: &str) -> Option<f64> {
         match self.values.get(column)? {
             Cell::Num(x) => Some(*x),
@@ -170,6 +181,7 @@ pub fn parse_jsonl(path: &Path, text: &str) -> Result<Table, ReportError> {
             .ok_or_else(|| at("no `point` number".into()))?;
         let mut row = Row {
             point: point as usize,
+            source: None,
             values: BTreeMap::new(),
         };
         for part in ["params", "metrics"] {
@@ -224,6 +236,7 @@ pub fn parse_csv(path: &Path, text: &str) -> Result<Table, ReportError> {
         })?;
         let mut row = Row {
             point,
+            source: None,
             values: BTreeMap::new(),
         };
         for (h, cell) in header.iter().zip(rec) {
