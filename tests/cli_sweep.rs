@@ -254,6 +254,38 @@ fn single_points_merge_and_slurm_scripts() {
     );
 }
 
+#[test]
+fn excluded_grid_points_are_never_run_and_the_rest_keep_their_numbers() {
+    let tmp = tempfile::tempdir().unwrap();
+    let exp = experiment(tmp.path(), 8, "[[exclude]]\n\"bvh.max_leaf_size\" = 4");
+    let out = tmp.path().join("r");
+    let list = ok(sweep(&exp, &out).arg("--list"));
+    let numbers: Vec<&str> = list.lines().map(|l| &l[..6]).collect();
+    assert_eq!(
+        numbers,
+        ["p00000", "p00001", "p00004", "p00005", "p00006"],
+        "{list}"
+    );
+    ok(sweep(&exp, &out).args(["--jobs", "2"]));
+    let t = table(&out);
+    let points: Vec<&str> = t
+        .lines()
+        .skip(1)
+        .map(|l| &l[..l.find(',').unwrap()])
+        .collect();
+    assert_eq!(points, ["0", "1", "4", "5", "6"], "{t}");
+    assert!(!out.join("points/p00002").exists() && !out.join("points/p00003").exists());
+    let line = fails(sweep(&exp, &out).args(["--point", "2"]));
+    assert!(
+        line.contains("[[exclude]] leaves that grid point out"),
+        "{line}"
+    );
+    let jobs = tmp.path().join("jobs");
+    ok(sweep(&exp, &out).arg("--emit-slurm").arg(&jobs));
+    let script = std::fs::read_to_string(jobs.join("points.sbatch")).unwrap();
+    assert!(script.contains("#SBATCH --array=0-1,4-6\n"), "{script}");
+}
+
 /// The Slurm path for real: a one-node cluster on localhost (root and Debian's slurm-wlm and
 /// munge, installed here if missing), the emitted array job and merge, and the merged table
 /// equal to a local run's. Skips, saying why, where that cannot run.

@@ -99,7 +99,8 @@ pub fn run(args: SweepArgs) -> Result<()> {
     }
     validate_points(&e, &points)?;
     if let Some(dir) = &args.emit_slurm {
-        return emit_slurm(&args, &e, &out, points.len(), dir);
+        let indices: Vec<usize> = points.iter().map(|p| p.index).collect();
+        return emit_slurm(&args, &e, &out, &indices, dir);
     }
     if args.merge {
         if !out.is_dir() {
@@ -113,12 +114,13 @@ pub fn run(args: SweepArgs) -> Result<()> {
     }
     let todo: Vec<&Point> = match args.point {
         Some(k) => {
-            let p = points.get(k).with_context(|| {
-                format!(
-                    "--point {k}: the experiment has points 0..={}",
-                    points.len() - 1
-                )
-            })?;
+            let Some(p) = points.iter().find(|p| p.index == k) else {
+                let last = points.last().map_or(0, |p| p.index);
+                if k < last {
+                    bail!("--point {k}: the experiment's [[exclude]] leaves that grid point out");
+                }
+                bail!("--point {k}: the experiment has points 0..={last}");
+            };
             vec![p]
         }
         None => {
@@ -541,7 +543,13 @@ fn merge(e: &Experiment, points: &[Point], quick: bool, store: &Store) -> Result
     Ok(m.missing)
 }
 
-fn emit_slurm(args: &SweepArgs, e: &Experiment, out: &Path, n: usize, dir: &Path) -> Result<()> {
+fn emit_slurm(
+    args: &SweepArgs,
+    e: &Experiment,
+    out: &Path,
+    indices: &[usize],
+    dir: &Path,
+) -> Result<()> {
     let abs = |p: &Path| -> Result<PathBuf> {
         std::path::absolute(p).with_context(|| format!("resolving {}", p.display()))
     };
@@ -557,15 +565,15 @@ fn emit_slurm(args: &SweepArgs, e: &Experiment, out: &Path, n: usize, dir: &Path
         binary: &binary,
         experiment: &experiment,
         out: &out,
-        points: n,
+        points: indices,
         quick: args.quick,
         options: &args.sbatch,
     };
-    if n > rtsim_sweep::slurm::DEFAULT_MAX_ARRAY_SIZE {
+    let last = indices.last().copied().unwrap_or(0);
+    if last >= rtsim_sweep::slurm::DEFAULT_MAX_ARRAY_SIZE {
         eprintln!(
-            "warning: {n} array tasks (0..={}): Slurm's default MaxArraySize is {}, so the \
-             cluster's slurm.conf must allow more, or the submission is refused",
-            n - 1,
+            "warning: array task indices up to {last}: Slurm's default MaxArraySize is {}, so \
+             the cluster's slurm.conf must allow more, or the submission is refused",
             rtsim_sweep::slurm::DEFAULT_MAX_ARRAY_SIZE
         );
     }
@@ -582,9 +590,10 @@ fn emit_slurm(args: &SweepArgs, e: &Experiment, out: &Path, n: usize, dir: &Path
         }
     }
     println!(
-        "wrote {}/{{points.sbatch,merge.sbatch,submit.sh}}: {n} array tasks and a merge; \
+        "wrote {}/{{points.sbatch,merge.sbatch,submit.sh}}: {} array tasks and a merge; \
          run {}/submit.sh on the cluster",
         dir.display(),
+        indices.len(),
         dir.display()
     );
     Ok(())

@@ -20,6 +20,10 @@
 //! [quick]                       # with --quick: overrides for every point (minutes, not hours)
 //! "workload.width" = 32
 //! "arch.trax.tms" = [1, 4]      # a key the [grid] varies: a list that replaces its values
+//!
+//! [[exclude]]                   # grid points not to run: those with all of these values
+//! "arch.preset" = "strata"
+//! "arch.trax.tms" = 1
 //! ```
 //!
 //! With `--quick`, a point's settings are `[base]`, its grid values (a `[quick]` list replacing
@@ -31,7 +35,9 @@
 //! Keys are the command's configuration keys (for `dram`, keys under `dram.`, as its
 //! `--config` file takes a `[dram]` table). Grid keys vary in alphabetical order (TOML tables
 //! are sorted), the last fastest; points are numbered grid first, then `[[point]]`s in file
-//! order; with neither, the experiment is one point. Each point's settings are written as a
+//! order; with neither, the experiment is one point. An excluded grid point keeps its number
+//! (the numbers after it do not move, so adding an exclusion never renames finished points),
+//! and `--list` shows the gap. Each point's settings are written as a
 //! config file the command reads with `--config`, so every point is also an ordinary run that
 //! `config.resolved.toml` repeats.
 
@@ -112,6 +118,8 @@ pub struct Experiment {
     pub args: Vec<String>,
     base: Vec<(String, Value)>,
     grid: Vec<(String, Vec<Value>)>,
+    /// `[[exclude]]`: grid points with all of one entry's values are not run.
+    exclude: Vec<Vec<(String, Value)>>,
     points: Vec<ExplicitPoint>,
     /// `[quick]`, if the experiment has one: its lists for grid keys and its other settings.
     quick: Option<Quick>,
@@ -336,6 +344,47 @@ impl Experiment {
         } else {
             None
         };
+        let exclude = match root.remove("exclude") {
+            None => Vec::new(),
+            Some(Value::Array(a)) => a
+                .into_iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    let Value::Table(t) = v else {
+                        return Err(bad(format!("[[exclude]] {i} must be a table, found {v}")));
+                    };
+                    let entry = flatten_section(&t, &format!("[[exclude]] {i}")).map_err(bad)?;
+                    if entry.is_empty() {
+                        return Err(bad(format!(
+                            "[[exclude]] {i} is empty (it would exclude every grid point)"
+                        )));
+                    }
+                    for (key, value) in &entry {
+                        let Some((_, values)) = grid.iter().find(|(k, _)| k == key) else {
+                            return Err(bad(format!(
+                                "[[exclude]] {i}: `{key}` is not a [grid] key (an exclusion \
+                                 names grid values)"
+                            )));
+                        };
+                        if !values.contains(value) {
+                            let listed: Vec<String> =
+                                values.iter().map(|v| v.to_string()).collect();
+                            return Err(bad(format!(
+                                "[[exclude]] {i}: `{key}` = {value} is not among the grid's values \
+                                 ({})",
+                                listed.join(", ")
+                            )));
+                        }
+                    }
+                    Ok(entry)
+                })
+                .collect::<Result<_, _>>()?,
+            Some(v) => {
+                return Err(bad(format!(
+                    "`exclude` must be [[exclude]] tables, found {v}"
+                )));
+            }
+        };
         let points = match root.remove("point") {
             None => Vec::new(),
             Some(Value::Array(a)) => a
@@ -368,7 +417,7 @@ impl Experiment {
         if let Some(k) = root.keys().next() {
             return Err(bad(format!(
                 "unknown key `{k}`; an experiment has name, command, args, [base], [grid], \
-                 [[point]] and [quick]"
+                 [[exclude]], [[point]] and [quick]"
             )));
         }
         let e = Experiment {
@@ -378,6 +427,7 @@ impl Experiment {
             args,
             base,
             grid,
+            exclude,
             points,
             quick,
         };
@@ -394,6 +444,13 @@ impl Experiment {
         // them would fill the table with repeats under different labels).
         for quick in [false, true] {
             let points = e.points(quick)?;
+            if points.is_empty() {
+                let scale = if quick { " with --quick" } else { "" };
+                return Err(bad(format!(
+                    "[[exclude]] excludes every grid point{scale} and there is no [[point]]: \
+                     nothing to run"
+                )));
+            }
             let mut seen = std::collections::BTreeMap::new();
             for p in &points {
                 if let Some(first) = seen.insert(p.config_toml.as_str(), p.index) {
@@ -429,7 +486,8 @@ impl Experiment {
             .collect()
     }
 
-    /// Number of points at either scale (saturating).
+    /// Number of point numbers at either scale (saturating): excluded grid points keep
+    /// theirs, so this bounds the points run.
     fn count(&self, quick: bool) -> usize {
         let grid = self.grid(quick);
         let grid_count = if grid.is_empty() {
@@ -442,7 +500,7 @@ impl Experiment {
         grid_count.saturating_add(self.points.len()).max(1)
     }
 
-    /// Number of points (at full scale).
+    /// Number of point numbers (at full scale), excluded grid points included.
     pub fn len(&self) -> usize {
         self.count(false)
     }
@@ -456,18 +514,28 @@ impl Experiment {
     pub fn points(&self, quick: bool) -> Result<Vec<Point>, SweepError> {
         let grid = self.grid(quick);
         // Each point's settings and its own quick overrides.
-        type Settings = Vec<(String, Value)>;
-        let mut params: Vec<(Settings, &[(String, Value)])> = Vec::new();
+        type Setting = (String, Value);
+        type Settings = Vec<Setting>;
+        // (number, settings, own quick overrides)
+        let mut params: Vec<(usize, Settings, &[Setting])> = Vec::new();
+        let mut next = 0;
         if !grid.is_empty() {
             let mut idx = vec![0usize; grid.len()];
             loop {
-                params.push((
-                    grid.iter()
-                        .zip(&idx)
-                        .map(|((k, v), &i)| (k.clone(), v[i].clone()))
-                        .collect(),
-                    &[],
-                ));
+                let settings: Settings = grid
+                    .iter()
+                    .zip(&idx)
+                    .map(|((k, v), &i)| (k.clone(), v[i].clone()))
+                    .collect();
+                let excluded = self.exclude.iter().any(|entry| {
+                    entry
+                        .iter()
+                        .all(|(k, v)| settings.iter().any(|(sk, sv)| sk == k && sv == v))
+                });
+                if !excluded {
+                    params.push((next, settings, &[]));
+                }
+                next += 1;
                 // Odometer: the last key fastest.
                 let mut d = grid.len();
                 loop {
@@ -493,10 +561,11 @@ impl Experiment {
         params.extend(
             self.points
                 .iter()
-                .map(|p| (p.settings.clone(), p.quick.as_slice())),
+                .enumerate()
+                .map(|(i, p)| (next + i, p.settings.clone(), p.quick.as_slice())),
         );
-        if params.is_empty() {
-            params.push((Vec::new(), &[]));
+        if params.is_empty() && next == 0 {
+            params.push((0, Vec::new(), &[]));
         }
         let quick_settings: &[(String, Value)] = match &self.quick {
             Some(q) if quick => &q.settings,
@@ -504,8 +573,7 @@ impl Experiment {
         };
         params
             .into_iter()
-            .enumerate()
-            .map(|(index, (mut p, own_quick))| {
+            .map(|(index, mut p, own_quick)| {
                 let own_quick = if quick { own_quick } else { &[] };
                 let err = |e: &dyn std::fmt::Display| {
                     SweepError::invalid(&self.path, format!("point {index}: {e}"))
@@ -588,6 +656,79 @@ mod tests {
         assert!(cfg["workload"].get("height").is_none());
         let q: Table = e.points(true).unwrap()[0].config_toml.parse().unwrap();
         assert_eq!(q["workload"]["height"].as_integer(), Some(4));
+    }
+
+    #[test]
+    fn excluded_grid_points_keep_their_numbers() {
+        let text = |exclude: &str| {
+            format!(
+                r#"
+                name = "t"
+                command = "render"
+                [grid]
+                "arch.preset" = ["sgrt-sptrv", "sgrt"]
+                "arch.sgrt.cores" = [1, 4]
+                "workload.spp" = [1, 2]
+                {exclude}
+                [[point]]
+                "workload.spp" = 8
+                [quick]
+                "workload.spp" = [1]
+                "#
+            )
+        };
+        let e = parse(&text(
+            "[[exclude]]\n\"arch.preset\" = \"sgrt-sptrv\"\n\"arch.sgrt.cores\" = 4",
+        ))
+        .unwrap();
+        let p = e.points(false).unwrap();
+        let idx: Vec<usize> = p.iter().map(|p| p.index).collect();
+        assert_eq!(
+            idx,
+            [0, 1, 4, 5, 6, 7, 8],
+            "points 2 and 3 excluded, 8 explicit"
+        );
+        // Without the exclusion the same points have the same numbers and settings.
+        let all = parse(&text("")).unwrap().points(false).unwrap();
+        assert_eq!(all.len(), 9);
+        for q in &p {
+            assert_eq!(all[q.index], *q);
+        }
+        assert_eq!(
+            (all[2].params[0].1.as_str(), all[2].params[1].1.as_integer()),
+            (Some("sgrt-sptrv"), Some(4))
+        );
+        // With --quick: the quick grid's own numbering, the same rule.
+        let idx: Vec<usize> = e.points(true).unwrap().iter().map(|p| p.index).collect();
+        assert_eq!(idx, [0, 2, 3, 4]);
+    }
+
+    #[test]
+    fn bad_exclusions_say_what_is_wrong() {
+        let head = "name = \"x\"\ncommand = \"render\"\n";
+        let grid = "[grid]\na = [1, 2]\n";
+        for (text, needle) in [
+            (
+                format!("{head}{grid}[[exclude]]\nb = 1"),
+                "`b` is not a [grid] key",
+            ),
+            (
+                format!("{head}{grid}[[exclude]]\na = 3"),
+                "`a` = 3 is not among the grid's values (1, 2)",
+            ),
+            (
+                format!("{head}exclude = 1\n{grid}"),
+                "must be [[exclude]] tables",
+            ),
+            (
+                format!("{head}{grid}[[exclude]]\na = 1\n[[exclude]]\na = 2"),
+                "excludes every grid point",
+            ),
+            (format!("{head}{grid}[[exclude]]\n"), "is empty"),
+        ] {
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(e.contains(needle), "{text}: {e}");
+        }
     }
 
     #[test]

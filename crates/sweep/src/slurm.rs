@@ -24,7 +24,8 @@ pub struct SlurmJob<'a> {
     pub binary: &'a Path,
     pub experiment: &'a Path,
     pub out: &'a Path,
-    pub points: usize,
+    /// The points' numbers, ascending (gaps where the experiment excludes grid points).
+    pub points: &'a [usize],
     pub quick: bool,
     /// Extra `#SBATCH` options for both jobs (`--time=4:00:00`, `--mem=8G`,
     /// `--partition=long`, `--cpus-per-task=2`), each after the defaults so it wins.
@@ -65,6 +66,26 @@ pub fn check_option(o: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// Slurm's `--array` value for ascending indices: runs of consecutive numbers as ranges,
+/// joined by commas (`0-29,60-149`).
+pub fn array_spec(indices: &[usize]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < indices.len() {
+        let mut j = i;
+        while j + 1 < indices.len() && indices[j + 1] == indices[j] + 1 {
+            j += 1;
+        }
+        parts.push(if i == j {
+            indices[i].to_string()
+        } else {
+            format!("{}-{}", indices[i], indices[j])
+        });
+        i = j + 1;
+    }
+    parts.join(",")
+}
+
 /// Quote for a POSIX shell.
 pub fn shell_quote(s: &str) -> String {
     if !s.is_empty()
@@ -97,7 +118,7 @@ pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
         "#!/bin/bash\n\
          # One task per point of experiment `{name}` ({n} points), written by `rtsim sweep --emit-slurm`.\n\
          #SBATCH --job-name=rtsim-{name}\n\
-         #SBATCH --array=0-{last}\n\
+         #SBATCH --array={array}\n\
          #SBATCH --ntasks=1\n\
          #SBATCH --cpus-per-task=1\n\
          #SBATCH --output={logs}/point-%a.log\n\
@@ -106,8 +127,8 @@ pub fn scripts(job: &SlurmJob<'_>) -> Vec<(&'static str, String)> {
          set -euo pipefail\n\
          exec {base} --point \"$SLURM_ARRAY_TASK_ID\"{quick}\n",
         name = job.name,
-        n = job.points,
-        last = job.points.saturating_sub(1),
+        n = job.points.len(),
+        array = array_spec(job.points),
         logs = q(&logs),
         dir = q(job.workdir),
     );
@@ -158,7 +179,7 @@ mod tests {
             binary: Path::new("/opt/rtsim"),
             experiment: Path::new("/home/u/exp dir/fig7.toml"),
             out: Path::new("/scratch/results/fig7"),
-            points: 16,
+            points: &(0..16).collect::<Vec<_>>(),
             quick: true,
             options: &["--time=4:00:00".into(), "--mem=8G".into()],
         };
@@ -197,5 +218,13 @@ mod tests {
                 .contains("--dependency=afterany:\"$jid\" merge.sbatch")
         );
         assert_eq!(shell_quote("it's"), "'it'\\''s'");
+    }
+
+    #[test]
+    fn excluded_points_leave_gaps_in_the_array() {
+        assert_eq!(array_spec(&[0, 1, 2, 5, 7, 8]), "0-2,5,7-8");
+        assert_eq!(array_spec(&[3]), "3");
+        let points: Vec<usize> = (0..30).chain(60..150).collect();
+        assert_eq!(array_spec(&points), "0-29,60-149");
     }
 }
