@@ -872,40 +872,25 @@ mod tests {
         assert!((series[0].values[0].unwrap() - 100.0 / 7.0).abs() < 1e-9);
     }
 
-    fn at(mut row: (Arch, Row), w: f64, source: Option<usize>) -> (Arch, Row) {
-        row.1.values.insert("workload.width".into(), Cell::Num(w));
-        row.1.values.insert("workload.height".into(), Cell::Num(w));
-        row.1.source = source;
-        row
+    /// Baseline Sibenik rows at (point, TMs, value) in a `w`² frame.
+    fn framed(w: f64, rows: &[(usize, f64, f64)]) -> Results {
+        results(
+            rows.iter()
+                .map(|&(point, tms, x)| {
+                    let mut row = trax_row(point, Arch::TraxBaseline, "sibenik", tms, MB4, x);
+                    row.1.values.insert("workload.width".into(), Cell::Num(w));
+                    row.1.values.insert("workload.height".into(), Cell::Num(w));
+                    row
+                })
+                .collect(),
+        )
     }
 
     #[test]
     fn several_results_keep_frames_apart_and_tables_take_the_larger_frame() {
         // Figure 7 at 256² (results 1) beside Table 1's runs at 1024² and 128 TMs (results 2).
-        let one = results(vec![
-            at(
-                trax_row(0, Arch::TraxBaseline, "sibenik", 64.0, MB4, 1.0),
-                256.0,
-                None,
-            ),
-            at(
-                trax_row(1, Arch::TraxBaseline, "sibenik", 128.0, MB4, 2.0),
-                256.0,
-                None,
-            ),
-        ]);
-        let two = results(vec![
-            at(
-                trax_row(0, Arch::TraxBaseline, "sibenik", 64.0, MB4, 3.0),
-                1024.0,
-                None,
-            ),
-            at(
-                trax_row(0, Arch::TraxBaseline, "sibenik", 128.0, MB4, 4.0),
-                1024.0,
-                None,
-            ),
-        ]);
+        let one = framed(256.0, &[(0, 64.0, 1.0), (1, 128.0, 2.0)]);
+        let two = framed(1024.0, &[(0, 64.0, 3.0), (0, 128.0, 4.0)]);
         let r = Results::merge(vec![one, two]);
         assert_eq!(r.sources.len(), 2);
         let ids: Vec<String> = r.rows.iter().map(|(_, row)| row.id()).collect();
@@ -935,18 +920,7 @@ mod tests {
         let t = table_rows(&r, Arch::TraxBaseline);
         assert_eq!(t["sibenik"].num(MS_PER_FRAME), Some(4.0));
         // One results: names carry no frame and ids no results' number.
-        let single = results(vec![
-            at(
-                trax_row(0, Arch::TraxBaseline, "sibenik", 64.0, MB4, 1.0),
-                256.0,
-                None,
-            ),
-            at(
-                trax_row(1, Arch::TraxBaseline, "sibenik", 128.0, MB4, 2.0),
-                256.0,
-                None,
-            ),
-        ]);
+        let single = framed(256.0, &[(0, 64.0, 1.0), (1, 128.0, 2.0)]);
         let merged = Results::merge(vec![single]);
         assert_eq!(merged.rows[0].1.id(), "0");
         let Body::Lines { series, .. } = &figure7(&merged).chart.body else {
