@@ -35,6 +35,18 @@ pub fn run(args: ReportArgs) -> Result<()> {
             several.len()
         ),
     };
+    // The same results twice would count their SGRT runs twice over.
+    let mut seen = std::collections::BTreeMap::new();
+    for r in &args.results {
+        let key = std::fs::canonicalize(r).unwrap_or_else(|_| r.clone());
+        if let Some(first) = seen.insert(key, r) {
+            bail!(
+                "RESULTS {} and {} are the same results; give each once",
+                first.display(),
+                r.display()
+            );
+        }
+    }
     let report = rtsim_report::build_many(&args.results)?;
     let page = out.join(PAGE);
     let figures = out.join(FIGURE_DIR);
