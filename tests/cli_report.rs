@@ -259,6 +259,15 @@ fn a_report_over_two_sweeps_draws_their_rows_together() {
             .arg(&out),
     );
     assert!(e.contains("are the same results"), "{e}");
+    let e = fails(
+        rtsim()
+            .arg("report")
+            .arg(&a)
+            .arg(a.join("results.csv"))
+            .arg("--out")
+            .arg(&out),
+    );
+    assert!(e.contains("are the same results"), "{e}");
     ok(rtsim().arg("report").arg(&a).arg(&b).arg("--out").arg(&out));
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("[1] <code>") && html.contains("[2] <code>"));

@@ -7,7 +7,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 use rtsim_core::output::OutputPlan;
 use rtsim_report::{FIGURE_DIR, PAGE};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, Args, Clone)]
 pub struct ReportArgs {
@@ -35,10 +35,16 @@ pub fn run(args: ReportArgs) -> Result<()> {
             several.len()
         ),
     };
-    // The same results twice would count their SGRT runs twice over.
+    // The same results twice (a directory, or either of its tables) would count their runs
+    // twice over.
     let mut seen = std::collections::BTreeMap::new();
     for r in &args.results {
-        let key = std::fs::canonicalize(r).unwrap_or_else(|_| r.clone());
+        let dir = if r.is_file() {
+            r.parent().map(Path::to_path_buf).unwrap_or_default()
+        } else {
+            r.clone()
+        };
+        let key = std::fs::canonicalize(&dir).unwrap_or(dir);
         if let Some(first) = seen.insert(key, r) {
             bail!(
                 "RESULTS {} and {} are the same results; give each once",

@@ -115,11 +115,19 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let todo: Vec<&Point> = match args.point {
         Some(k) => {
             let Some(p) = points.iter().find(|p| p.index == k) else {
-                let last = points.last().map_or(0, |p| p.index);
-                if k < last {
-                    bail!("--point {k}: the experiment's [[exclude]] leaves that grid point out");
+                let numbers: Vec<usize> = points.iter().map(|p| p.index).collect();
+                let mut have = rtsim_sweep::slurm::array_spec(&numbers);
+                if have.len() > 120 {
+                    let cut = have[..120].rfind(',').unwrap_or(0);
+                    have.replace_range(cut.., ", …");
                 }
-                bail!("--point {k}: the experiment has points 0..={last}");
+                if k < e.numbers(args.quick) {
+                    bail!(
+                        "--point {k}: the experiment's [[exclude]] leaves that grid point out \
+                         (its points: {have})"
+                    );
+                }
+                bail!("--point {k}: the experiment's points are {have}");
             };
             vec![p]
         }

@@ -58,7 +58,9 @@ fn pptrv(arch: Arch, row: &Row) -> bool {
     }
 }
 
-/// SGRT rows matching `keep`, by (scene, ray type).
+/// SGRT rows matching `keep`, by (scene, ray type); of a group's rows only those with the most
+/// samples (width × height × spp), so a `--quick` sweep read beside a paper-scale one does
+/// not dilute its means.
 fn groups(r: &Results, keep: impl Fn(Arch, &Row) -> bool) -> BTreeMap<(String, String), Vec<&Row>> {
     let mut g: BTreeMap<(String, String), Vec<&Row>> = BTreeMap::new();
     for (a, row) in r.rows.iter().filter(|(a, _)| !a.is_trax()) {
@@ -68,7 +70,19 @@ fn groups(r: &Results, keep: impl Fn(Arch, &Row) -> bool) -> BTreeMap<(String, S
             g.entry((scene, kind)).or_default().push(row);
         }
     }
+    for rows in g.values_mut() {
+        let most = rows.iter().map(|r| samples(r)).max().unwrap_or(0);
+        rows.retain(|r| samples(r) == most);
+    }
     g
+}
+
+/// Samples a run traced: width × height × spp (the columns each missing counts as 1).
+fn samples(row: &Row) -> u64 {
+    ["workload.width", "workload.height", "workload.spp"]
+        .iter()
+        .map(|c| row.num(c).map_or(1, |v| v as u64))
+        .fold(1u64, u64::saturating_mul)
 }
 
 fn cores(row: &Row) -> f64 {
@@ -504,6 +518,38 @@ mod tests {
         // A hit rate the run lacks is "n/a", not a number.
         assert!(t5.contains("<td class=\"missing\">n/a</td>"));
         assert!(table6(&r).contains("not run"));
+    }
+
+    #[test]
+    fn means_take_the_runs_with_the_most_samples() {
+        // A quick sweep's 64×48 × 1 run read beside a paper-scale 1024×768 × 32 one.
+        let sized = |point, source, w: f64, h: f64, spp: f64, mrays| {
+            let (a, mut row) = sgrt_row(point, Arch::Sgrt, 4.0, "ao", mrays);
+            row.source = Some(source);
+            for (c, v) in [
+                ("workload.width", w),
+                ("workload.height", h),
+                ("workload.spp", spp),
+            ] {
+                row.values.insert(c.into(), Cell::Num(v));
+            }
+            (a, row)
+        };
+        let r = Results {
+            sources: vec!["quick".into(), "full".into()],
+            rows: vec![
+                sized(0, 1, 64.0, 48.0, 1.0, 500.0),
+                sized(0, 2, 1024.0, 768.0, 32.0, 90.0),
+                sized(1, 2, 1024.0, 768.0, 32.0, 110.0),
+            ],
+        };
+        let t5 = table5(&r);
+        assert!(
+            t5.contains(
+                "data-col=\"sgrt.mrays_per_second\" data-points=\"2:0 2:1\" data-value=\"100\""
+            ),
+            "{t5}"
+        );
     }
 
     #[test]

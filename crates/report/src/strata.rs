@@ -168,7 +168,7 @@ pub fn table_rows(r: &Results, arch: Arch) -> BTreeMap<String, &Row> {
         (
             size(arch, row) == paper::STRATA_TABLE_SIZE_BYTES,
             num(row, TMS) as i64,
-            w * h,
+            w.saturating_mul(h),
             std::cmp::Reverse(row.source),
             std::cmp::Reverse(row.point),
         )

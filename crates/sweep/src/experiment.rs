@@ -144,7 +144,8 @@ struct Quick {
 /// One run of an experiment.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Point {
-    /// Position in the experiment's order, from 0.
+    /// The point's number, from 0, in the experiment's order (an excluded grid point's number
+    /// is skipped, not reused).
     pub index: usize,
     /// What distinguishes this point: its grid values and explicit settings, sorted by key.
     pub params: Vec<(String, Value)>,
@@ -498,6 +499,11 @@ impl Experiment {
                 .unwrap_or(usize::MAX)
         };
         grid_count.saturating_add(self.points.len()).max(1)
+    }
+
+    /// Number of point numbers at either scale, excluded grid points included.
+    pub fn numbers(&self, quick: bool) -> usize {
+        self.count(quick)
     }
 
     /// Number of point numbers (at full scale), excluded grid points included.
