@@ -34,6 +34,8 @@ pub const AREA: &str = "sgrt.area.total_mm2";
 pub const KIND: &str = "workload.kind";
 /// Organisation of the traversal unit (`pptrv`, `sptrv`), from the resolved configuration.
 pub const ORGANISATION: &str = "arch.sgrt.organisation";
+/// The scene's camera (`[[viewpoint]]` of its descriptor): the runs a mean is taken over.
+pub const VIEWPOINT: &str = "scene.viewpoint";
 pub const WIDTH: &str = "workload.width";
 pub const HEIGHT: &str = "workload.height";
 
@@ -60,7 +62,8 @@ fn pptrv(arch: Arch, row: &Row) -> bool {
 
 /// SGRT rows matching `keep`, by (scene, ray type); of a group's rows only those with the most
 /// samples (width × height × spp), so a `--quick` sweep read beside a paper-scale one does
-/// not dilute its means.
+/// not dilute its means, and one run per viewpoint (the first read), so a viewpoint run by
+/// two of the results read (a sweep and a rerun of some of its points) counts once.
 fn groups(r: &Results, keep: impl Fn(Arch, &Row) -> bool) -> BTreeMap<(String, String), Vec<&Row>> {
     let mut g: BTreeMap<(String, String), Vec<&Row>> = BTreeMap::new();
     for (a, row) in r.rows.iter().filter(|(a, _)| !a.is_trax()) {
@@ -73,6 +76,15 @@ fn groups(r: &Results, keep: impl Fn(Arch, &Row) -> bool) -> BTreeMap<(String, S
     for rows in g.values_mut() {
         let most = rows.iter().map(|r| samples(r)).max().unwrap_or(0);
         rows.retain(|r| samples(r) == most);
+        let mut seen = Vec::new();
+        rows.retain(|r| match r.num(VIEWPOINT) {
+            Some(v) if seen.contains(&v.to_bits()) => false,
+            Some(v) => {
+                seen.push(v.to_bits());
+                true
+            }
+            None => true,
+        });
     }
     g
 }
@@ -550,6 +562,42 @@ mod tests {
             ),
             "{t5}"
         );
+    }
+
+    #[test]
+    fn a_viewpoint_read_twice_counts_once() {
+        // Viewpoints 1 and 2 in one results directory, viewpoint 2 again in a second (a rerun
+        // of a point): the mean is over viewpoints 1 and 2, each once, the first read kept.
+        let at = |point, source, viewpoint: f64, mrays| {
+            let (a, mut row) = sgrt_row(point, Arch::Sgrt, 4.0, "ao", mrays);
+            row.source = Some(source);
+            row.values.insert(VIEWPOINT.into(), Cell::Num(viewpoint));
+            (a, row)
+        };
+        let r = Results {
+            sources: vec!["sweep".into(), "rerun".into()],
+            rows: vec![
+                at(0, 1, 1.0, 90.0),
+                at(1, 1, 2.0, 110.0),
+                at(7, 2, 2.0, 110.0),
+            ],
+        };
+        let t5 = table5(&r);
+        assert!(
+            t5.contains(
+                "data-col=\"sgrt.mrays_per_second\" data-points=\"1:0 1:1\" data-value=\"100\""
+            ),
+            "{t5}"
+        );
+        // Without viewpoints (older tables) every row counts.
+        let r = Results {
+            sources: vec!["t.csv".into()],
+            rows: vec![
+                sgrt_row(0, Arch::Sgrt, 4.0, "ao", 90.0),
+                sgrt_row(1, Arch::Sgrt, 4.0, "ao", 120.0),
+            ],
+        };
+        assert!(table5(&r).contains("data-points=\"0 1\" data-value=\"105\""));
     }
 
     #[test]
