@@ -255,6 +255,72 @@ fn single_points_merge_and_slurm_scripts() {
 }
 
 #[test]
+fn a_point_list_runs_those_points_and_list_shows_where_each_stands() {
+    let tmp = tempfile::tempdir().unwrap();
+    let exp = experiment(tmp.path(), 8, "");
+    let out = tmp.path().join("r");
+    let run = sweep(&exp, &out)
+        .args(["--point", "6,1-2", "--jobs", "2"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("7 points, 3 to run (2 at once)"),
+        "{stderr}"
+    );
+    assert!(
+        !out.join("results.csv").exists(),
+        "a point list does not merge"
+    );
+    // A point killed mid-run leaves its staging directory; a failed one its `.failed`.
+    std::fs::create_dir_all(out.join("points/p00004.tmp")).unwrap();
+    std::fs::create_dir_all(out.join("points/p00005.failed")).unwrap();
+    let listed = sweep(&exp, &out).arg("--list").output().unwrap();
+    assert!(listed.status.success());
+    let stdout = String::from_utf8_lossy(&listed.stdout);
+    let status: Vec<(&str, &str)> = stdout
+        .lines()
+        .map(|l| (&l[..6], l[8..18].trim_end()))
+        .collect();
+    assert_eq!(
+        status,
+        [
+            ("p00000", "not run"),
+            ("p00001", "finished"),
+            ("p00002", "finished"),
+            ("p00003", "not run"),
+            ("p00004", "staged"),
+            ("p00005", "failed"),
+            ("p00006", "finished")
+        ],
+        "{stdout}"
+    );
+    let summary = String::from_utf8_lossy(&listed.stderr);
+    assert!(
+        summary.contains("3 of 7 point(s) finished in")
+            && summary.contains("the others: --point 0,3-5"),
+        "{summary}"
+    );
+    // The list reads back as a point list, and runs the rest in the order given.
+    ok(sweep(&exp, &out).args(["--point", "5,0,3-4"]));
+    ok(sweep(&exp, &out).arg("--merge"));
+    assert_eq!(table(&out).lines().count(), 1 + 7);
+    let line = fails(sweep(&exp, &out).args(["--point", "2,1-3"]));
+    assert!(line.contains("point 2 is named twice"), "{line}");
+    let line = fails(sweep(&exp, &out).args(["--point", "4-2"]));
+    assert!(line.contains("the range 4-2 runs backwards"), "{line}");
+    // With --emit-slurm, the array's points.
+    let jobs = tmp.path().join("jobs");
+    ok(sweep(&exp, &out)
+        .args(["--point", "6,0-1"])
+        .arg("--emit-slurm")
+        .arg(&jobs));
+    let script = std::fs::read_to_string(jobs.join("points.sbatch")).unwrap();
+    assert!(script.contains("#SBATCH --array=0-1,6\n"), "{script}");
+}
+
+#[test]
 fn excluded_grid_points_are_never_run_and_the_rest_keep_their_numbers() {
     let tmp = tempfile::tempdir().unwrap();
     let exp = experiment(tmp.path(), 8, "[[exclude]]\n\"bvh.max_leaf_size\" = 4");

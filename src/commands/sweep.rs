@@ -30,9 +30,11 @@ pub struct SweepArgs {
     /// Apply the experiment's [quick] overrides (minutes instead of hours).
     #[arg(long)]
     pub quick: bool,
-    /// Run only point K (what each task of a batch array runs), without merging.
-    #[arg(long, value_name = "K", conflicts_with_all = ["merge", "emit_slurm"])]
-    pub point: Option<usize>,
+    /// Run only these points, without merging: one number (what each task of a batch array
+    /// runs) or numbers and ranges in the order to run them, e.g. `93-95,108-110` (a range
+    /// skips the grid points `[[exclude]]` leaves out). With --emit-slurm: the array's points.
+    #[arg(long, value_name = "LIST", conflicts_with = "merge")]
+    pub point: Option<String>,
     /// Only merge the finished points into the table.
     #[arg(long, conflicts_with = "emit_slurm")]
     pub merge: bool,
@@ -49,8 +51,9 @@ pub struct SweepArgs {
         allow_hyphen_values = true
     )]
     pub sbatch: Vec<String>,
-    /// List the points and their parameters, then exit.
-    #[arg(long)]
+    /// List the points, where each stands in the results directory (finished, failed,
+    /// staged: running or killed, not run) and their parameters, then exit.
+    #[arg(long, conflicts_with_all = ["merge", "emit_slurm"])]
     pub list: bool,
 }
 
@@ -87,19 +90,28 @@ pub fn run(args: SweepArgs) -> Result<()> {
         PathBuf::from("results").join(format!("{}{suffix}", e.name))
     });
     let store = Store::new(&out);
-    if args.list {
-        for p in &points {
-            println!(
-                "p{:05}  {}",
-                p.index,
-                serde_json::Value::Object(p.params_json())
-            );
+    let chosen: Option<Vec<usize>> = match &args.point {
+        Some(list) => {
+            let have: Vec<usize> = points.iter().map(|p| p.index).collect();
+            let entries = rtsim_sweep::select::parse(list).map_err(anyhow::Error::msg)?;
+            let numbers = e.numbers(args.quick);
+            Some(
+                rtsim_sweep::select::resolve(&entries, &have, numbers)
+                    .map_err(anyhow::Error::msg)?,
+            )
         }
-        return Ok(());
+        None => None,
+    };
+    if args.list {
+        return list(&e, &points, chosen.as_deref(), args.quick, &store);
     }
     validate_points(&e, &points)?;
     if let Some(dir) = &args.emit_slurm {
-        let indices: Vec<usize> = points.iter().map(|p| p.index).collect();
+        let mut indices: Vec<usize> = match &chosen {
+            Some(c) => c.clone(),
+            None => points.iter().map(|p| p.index).collect(),
+        };
+        indices.sort_unstable();
         return emit_slurm(&args, &e, &out, &indices, dir);
     }
     if args.merge {
@@ -112,25 +124,16 @@ pub fn run(args: SweepArgs) -> Result<()> {
         let missing = merge(&e, &points, args.quick, &store)?;
         return unfinished(&missing);
     }
-    let todo: Vec<&Point> = match args.point {
-        Some(k) => {
-            let Some(p) = points.iter().find(|p| p.index == k) else {
-                let numbers: Vec<usize> = points.iter().map(|p| p.index).collect();
-                let mut have = rtsim_sweep::slurm::array_spec(&numbers);
-                if have.len() > 120 {
-                    let cut = have[..120].rfind(',').unwrap_or(0);
-                    have.replace_range(cut.., ", …");
-                }
-                if k < e.numbers(args.quick) {
-                    bail!(
-                        "--point {k}: the experiment's [[exclude]] leaves that grid point out \
-                         (its points: {have})"
-                    );
-                }
-                bail!("--point {k}: the experiment's points are {have}");
-            };
-            vec![p]
-        }
+    let todo: Vec<&Point> = match &chosen {
+        Some(chosen) => chosen
+            .iter()
+            .map(|k| {
+                points
+                    .iter()
+                    .find(|p| p.index == *k)
+                    .expect("a resolved point")
+            })
+            .collect(),
         None => {
             store.clean_stale()?;
             points.iter().collect()
@@ -173,7 +176,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         out.display()
     );
     let failures = run_points(&e, &pending, args.quick, &store, jobs)?;
-    let missing = match args.point {
+    let missing = match chosen {
         None => merge(&e, &points, args.quick, &store)?,
         Some(_) => Vec::new(),
     };
@@ -189,6 +192,63 @@ pub fn run(args: SweepArgs) -> Result<()> {
         );
     }
     unfinished(&missing)
+}
+
+/// `--list`: each point (or each of `chosen`), where it stands in `store` and its
+/// parameters; then, on stderr, how many are finished and the others as a `--point` list.
+fn list(
+    e: &Experiment,
+    points: &[Point],
+    chosen: Option<&[usize]>,
+    quick: bool,
+    store: &Store,
+) -> Result<()> {
+    let shown: Vec<&Point> = match chosen {
+        Some(c) => c
+            .iter()
+            .map(|k| {
+                points
+                    .iter()
+                    .find(|p| p.index == *k)
+                    .expect("a resolved point")
+            })
+            .collect(),
+        None => points.iter().collect(),
+    };
+    let mut unfinished = Vec::new();
+    for p in &shown {
+        let status = match store.status(&PointRecord::of(e, p, quick)) {
+            Ok(Status::Done) => "finished",
+            Ok(Status::Todo) if store.failed_dir(p.index).is_dir() => "failed",
+            Ok(Status::Todo) if store.staging_dir(p.index).is_dir() => "staged",
+            Ok(Status::Todo) => "not run",
+            // The directory holds another point's results (or an unreadable record): the
+            // sweep would refuse to run; say so here and let the run give the full error.
+            Err(_) => "conflict",
+        };
+        if status != "finished" {
+            unfinished.push(p.index);
+        }
+        println!(
+            "p{:05}  {status:<8}  {}",
+            p.index,
+            serde_json::Value::Object(p.params_json())
+        );
+    }
+    unfinished.sort_unstable();
+    eprintln!(
+        "{} of {} point(s) finished in {}{}{}",
+        shown.len() - unfinished.len(),
+        shown.len(),
+        store.root().display(),
+        if unfinished.is_empty() {
+            ""
+        } else {
+            "; the others: --point "
+        },
+        rtsim_sweep::slurm::array_spec(&unfinished)
+    );
+    Ok(())
 }
 
 /// An error naming the points not finished, if any.

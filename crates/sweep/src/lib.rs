@@ -15,12 +15,14 @@
 //! - [`results`]: every numeric value of a point's `stats.json` flattened to a dotted key, and
 //!   all points merged into CSV and JSON lines.
 //! - [`slurm`]: an `sbatch` array job (one task per point) and a dependent merge job.
+//! - [`select`]: the points a command line names (`--point 3,7-9`).
 //!
 //! The crate decides *what* to run and where results go; the `rtsim sweep` command runs the
 //! processes.
 
 pub mod experiment;
 pub mod results;
+pub mod select;
 pub mod slurm;
 pub mod store;
 
