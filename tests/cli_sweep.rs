@@ -484,3 +484,53 @@ fn shipped_experiments_run_at_quick_scale() {
     }
     assert!(n > 0, "no experiments in {}", dir.display());
 }
+
+/// The paper-scale points kept in `docs/results/` (they cost CPU hours) still belong to the
+/// shipped experiments: an edit of an experiment that changes a recorded point's settings
+/// would make the sweep refuse the directory, so it fails here first; and `rtsim report`
+/// reads them.
+#[test]
+fn recorded_results_belong_to_the_shipped_experiments() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut n = 0;
+    for d in std::fs::read_dir(root.join("docs/results")).unwrap() {
+        let dir = d.unwrap().path();
+        if !dir.join("points").is_dir() {
+            continue;
+        }
+        n += 1;
+        let name = dir.file_name().unwrap().to_string_lossy().to_string();
+        let exp = root.join("experiments").join(format!("{name}.toml"));
+        assert!(
+            exp.is_file(),
+            "{}: no experiment {}",
+            dir.display(),
+            exp.display()
+        );
+        let listed = sweep(&exp, &dir).arg("--list").output().unwrap();
+        let stdout = String::from_utf8_lossy(&listed.stdout);
+        let stderr = String::from_utf8_lossy(&listed.stderr);
+        assert!(listed.status.success(), "{stderr}");
+        assert!(!stdout.contains("conflict"), "{}: {stdout}", dir.display());
+        let kept = std::fs::read_dir(dir.join("points"))
+            .unwrap()
+            .filter(|p| {
+                !p.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .contains('.')
+            })
+            .count();
+        assert!(kept > 0, "{}", dir.display());
+        assert!(
+            stderr.starts_with(&format!("{kept} of ")),
+            "{}: {kept} point directories, but: {stderr}",
+            dir.display()
+        );
+        let tmp = tempfile::tempdir().unwrap();
+        ok(rtsim().arg("report").arg(&dir).arg("--out").arg(tmp.path()));
+        assert!(tmp.path().join("report.html").is_file());
+    }
+    assert!(n >= 2, "docs/results holds the recorded experiments");
+}
