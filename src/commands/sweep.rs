@@ -217,13 +217,14 @@ fn list(
     };
     let mut unfinished = Vec::new();
     for p in &shown {
-        let status = match store.status(&PointRecord::of(e, p, quick)) {
+        let wanted = PointRecord::of(e, p, quick);
+        let status = match store.status(&wanted) {
             Ok(Status::Done) => "finished",
             Ok(Status::Todo) if store.failed_dir(p.index).is_dir() => "failed",
             Ok(Status::Todo) if store.staging_dir(p.index).is_dir() => "staged",
             Ok(Status::Todo) => "not run",
             // The directory holds another point's results (or an unreadable record): the
-            // sweep would refuse to run; say so here and let the run give the full error.
+            // sweep would refuse to run; say so here, with what differs.
             Err(_) => "conflict",
         };
         if status != "finished" {
@@ -234,6 +235,14 @@ fn list(
             p.index,
             serde_json::Value::Object(p.params_json())
         );
+        if status == "conflict" {
+            let why = match store.record(p.index) {
+                Ok(Some(found)) => rtsim_sweep::store::first_few(&found.differences(&wanted), 3),
+                Ok(None) => "no record".to_string(),
+                Err(err) => err.to_string(),
+            };
+            println!("          {why}");
+        }
     }
     unfinished.sort_unstable();
     eprintln!(

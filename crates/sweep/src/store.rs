@@ -92,6 +92,92 @@ impl PointRecord {
             ..other.clone()
         }
     }
+
+    /// What makes this finished point's record differ from `wanted`'s (the build aside), one
+    /// phrase each: the settings of their config files key by key
+    /// ("`workload.spp` is 16 here, 32 in the experiment"), then the record's other fields.
+    pub fn differences(&self, wanted: &PointRecord) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.config != wanted.config {
+            match (flatten_toml(&self.config), flatten_toml(&wanted.config)) {
+                (Some(here), Some(there)) => {
+                    let keys: std::collections::BTreeSet<&String> =
+                        here.keys().chain(there.keys()).collect();
+                    for k in keys {
+                        let (a, b) = (here.get(k), there.get(k));
+                        if a != b {
+                            let show = |v: Option<&String>| v.map_or("unset".into(), Clone::clone);
+                            out.push(format!(
+                                "`{k}` is {} here, {} in the experiment",
+                                show(a),
+                                show(b)
+                            ));
+                        }
+                    }
+                    if out.is_empty() {
+                        out.push("the config files differ in layout only".into());
+                    }
+                }
+                _ => out.push("the config files differ".into()),
+            }
+        }
+        let mut field = |name: &str, here: String, there: String| {
+            if here != there {
+                out.push(format!("{name} is {here} here, {there} in the experiment"));
+            }
+        };
+        field(
+            "the experiment",
+            self.experiment.clone(),
+            wanted.experiment.clone(),
+        );
+        field("the command", self.command.clone(), wanted.command.clone());
+        field(
+            "the arguments",
+            format!("{:?}", self.args),
+            format!("{:?}", wanted.args),
+        );
+        field("--quick", self.quick.to_string(), wanted.quick.to_string());
+        field(
+            "the grid parameters",
+            serde_json::Value::Object(self.params.clone()).to_string(),
+            serde_json::Value::Object(wanted.params.clone()).to_string(),
+        );
+        out
+    }
+}
+
+/// A TOML document's settings as dotted keys and their values written as TOML; `None` if it
+/// does not parse.
+fn flatten_toml(text: &str) -> Option<std::collections::BTreeMap<String, String>> {
+    fn walk(prefix: &str, t: &toml::Table, out: &mut std::collections::BTreeMap<String, String>) {
+        for (k, v) in t {
+            let key = if prefix.is_empty() {
+                k.clone()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            match v {
+                toml::Value::Table(inner) => walk(&key, inner, out),
+                other => {
+                    out.insert(key, other.to_string());
+                }
+            }
+        }
+    }
+    let table: toml::Table = text.parse().ok()?;
+    let mut out = std::collections::BTreeMap::new();
+    walk("", &table, &mut out);
+    Some(out)
+}
+
+/// At most `n` of `items` joined by "; ", then how many more there are.
+pub fn first_few(items: &[String], n: usize) -> String {
+    let mut s = items[..items.len().min(n)].join("; ");
+    if items.len() > n {
+        s.push_str(&format!("; and {} more", items.len() - n));
+    }
+    s
 }
 
 /// How a process ended, for a failed point's record: "exit status 2", "killed by signal 9
@@ -209,9 +295,12 @@ impl Store {
         } else {
             Err(SweepError::invalid(
                 &dir,
-                "holds a finished point with other settings (the experiment changed, or \
-                 another experiment used this directory): choose another output directory \
-                 with --out, or remove it",
+                format!(
+                    "holds a finished point with other settings ({}): the experiment changed, \
+                     or another experiment used this directory; choose another output \
+                     directory with --out, or remove it",
+                    first_few(&found.differences(record), 3)
+                ),
             ))
         }
     }
@@ -330,6 +419,7 @@ mod tests {
         other.config.push_str("# changed\n");
         let err = store.status(&other).unwrap_err().to_string();
         assert!(err.contains("other settings"), "{err}");
+        assert!(err.contains("layout only"), "{err}");
         // A failed point keeps its stderr and is retried.
         let p0 = PointRecord::of(&e, &e.points(false).unwrap()[0], false);
         store.begin(&p0).unwrap();
@@ -342,6 +432,41 @@ mod tests {
         assert_eq!(store.status(&p0).unwrap(), Status::Todo);
         store.begin(&p0).unwrap();
         assert!(!failed.exists());
+    }
+
+    #[test]
+    fn a_conflict_names_the_settings_that_differ() {
+        let e = exp();
+        let wanted = PointRecord::of(&e, &e.points(false).unwrap()[0], false);
+        let mut found = wanted.clone();
+        assert!(found.differences(&wanted).is_empty());
+        found.config = "[workload]\nspp = 16\nkind = \"ao\"\n".into();
+        let mut want = wanted.clone();
+        want.config = "[workload]\nspp = 32\nkind = \"ao\"\nmax_depth = 5\n".into();
+        want.quick = true;
+        let d = found.differences(&want);
+        assert_eq!(
+            d,
+            [
+                "`workload.max_depth` is unset here, 5 in the experiment",
+                "`workload.spp` is 16 here, 32 in the experiment",
+                "--quick is false here, true in the experiment",
+            ]
+        );
+        assert_eq!(
+            first_few(&d, 1),
+            "`workload.max_depth` is unset here, 5 in the experiment; and 2 more"
+        );
+        // Through the store: the refusal names them.
+        let tmp = tempfile::tempdir().unwrap();
+        let store = Store::new(tmp.path());
+        store.begin(&found).unwrap();
+        store.finish(&found).unwrap();
+        let err = store.status(&want).unwrap_err().to_string();
+        assert!(
+            err.contains("`workload.spp` is 16 here, 32 in the experiment"),
+            "{err}"
+        );
     }
 
     #[cfg(unix)]
