@@ -125,15 +125,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         return unfinished(&missing);
     }
     let todo: Vec<&Point> = match &chosen {
-        Some(chosen) => chosen
-            .iter()
-            .map(|k| {
-                points
-                    .iter()
-                    .find(|p| p.index == *k)
-                    .expect("a resolved point")
-            })
-            .collect(),
+        Some(chosen) => by_number(&points, chosen),
         None => {
             store.clean_stale()?;
             points.iter().collect()
@@ -194,6 +186,19 @@ pub fn run(args: SweepArgs) -> Result<()> {
     unfinished(&missing)
 }
 
+/// The points numbered `chosen`, in that order (numbers `select` already checked).
+fn by_number<'a>(points: &'a [Point], chosen: &[usize]) -> Vec<&'a Point> {
+    chosen
+        .iter()
+        .map(|k| {
+            points
+                .iter()
+                .find(|p| p.index == *k)
+                .expect("a resolved point")
+        })
+        .collect()
+}
+
 /// `--list`: each point (or each of `chosen`), where it stands in `store` and its
 /// parameters; then, on stderr, how many are finished and the others as a `--point` list.
 fn list(
@@ -204,15 +209,7 @@ fn list(
     store: &Store,
 ) -> Result<()> {
     let shown: Vec<&Point> = match chosen {
-        Some(c) => c
-            .iter()
-            .map(|k| {
-                points
-                    .iter()
-                    .find(|p| p.index == *k)
-                    .expect("a resolved point")
-            })
-            .collect(),
+        Some(c) => by_number(points, c),
         None => points.iter().collect(),
     };
     let mut unfinished = Vec::new();

@@ -150,25 +150,15 @@ impl PointRecord {
 /// A TOML document's settings as dotted keys and their values written as TOML; `None` if it
 /// does not parse.
 fn flatten_toml(text: &str) -> Option<std::collections::BTreeMap<String, String>> {
-    fn walk(prefix: &str, t: &toml::Table, out: &mut std::collections::BTreeMap<String, String>) {
-        for (k, v) in t {
-            let key = if prefix.is_empty() {
-                k.clone()
-            } else {
-                format!("{prefix}.{k}")
-            };
-            match v {
-                toml::Value::Table(inner) => walk(&key, inner, out),
-                other => {
-                    out.insert(key, other.to_string());
-                }
-            }
-        }
-    }
     let table: toml::Table = text.parse().ok()?;
-    let mut out = std::collections::BTreeMap::new();
-    walk("", &table, &mut out);
-    Some(out)
+    let mut leaves = Vec::new();
+    crate::experiment::flatten("", &table, &mut leaves);
+    Some(
+        leaves
+            .into_iter()
+            .map(|(k, v)| (k, v.to_string()))
+            .collect(),
+    )
 }
 
 /// At most `n` of `items` joined by "; ", then how many more there are.
