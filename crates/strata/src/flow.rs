@@ -301,6 +301,11 @@ impl Ready {
         self.change(b, |r| r.holders[b as usize] += 1);
     }
 
+    /// TMs on buffer `b` now.
+    pub(crate) fn holders(&self, b: u32) -> u32 {
+        self.holders[b as usize]
+    }
+
     /// A TM leaves buffer `b`.
     pub(crate) fn release(&mut self, b: u32) {
         self.change(b, |r| r.holders[b as usize] -= 1);

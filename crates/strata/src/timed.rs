@@ -74,6 +74,11 @@ pub struct StrataFacts {
     /// Buffer picks (a TM starting on a treelet) and mode changes (reconfigurations).
     pub treelet_switches: u64,
     pub reconfigurations: u64,
+    /// TMs on the picked buffer at each pick, the picking TM included, summed over picks
+    /// (divided by `treelet_switches`: how many TMs share a buffer when one joins it), and
+    /// the most at once.
+    pub holders_at_pick: u64,
+    pub max_holders: u32,
     /// Pops refused: no buffer the TM may take held a ray (the TP waits `poll_cycles`), or
     /// the TM must reconfigure and still has TPs holding rays.
     pub empty_polls: u64,
@@ -754,6 +759,9 @@ impl<'a> StrataSource<'a> {
             m.treelet = Some(b);
             self.ready.claim(b);
             self.facts.treelet_switches += 1;
+            let holders = self.ready.holders(b);
+            self.facts.holders_at_pick += holders as u64;
+            self.facts.max_holders = self.facts.max_holders.max(holders);
         }
         let b = self.tms[tm].treelet.expect("a treelet");
         let bank = self.stream.pop_bank(b).expect("the buffer holds a ray");

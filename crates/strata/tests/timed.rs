@@ -270,4 +270,10 @@ fn a_tms_per_buffer_cap_at_or_above_the_tm_count_is_no_cap() {
     let one = with(1);
     assert_same(&one, &reference);
     assert_ne!(one.strata, free.strata);
+    // The sharing counters see the cap: one TM a buffer under a cap of 1, more without.
+    assert_eq!(one.strata.max_holders, 1);
+    assert_eq!(one.strata.holders_at_pick, one.strata.treelet_switches);
+    assert!(free.strata.max_holders > 1, "{:?}", free.strata);
+    assert!(free.strata.holders_at_pick > free.strata.treelet_switches);
+    assert!(free.strata.max_holders <= 3);
 }

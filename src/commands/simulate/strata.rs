@@ -39,17 +39,26 @@ pub(crate) fn frame(s: &Session) -> Result<Ran<StrataOutput>> {
 pub fn run(s: &Session) -> Result<SimOutput> {
     let r = frame(s)?;
     let StrataOutput { out, strata } = r.out;
-    let extra = vec![format!(
-        "stream memory    {} paths, {} pushes, {} pops, {} path records, {:.3} mJ; {} treelet \
-         switches, {} reconfigurations",
-        strata.paths,
-        strata.stream.pushes,
-        strata.stream.pops,
-        strata.stream.path_reads + strata.stream.path_writes,
-        strata.stream_energy_j * 1e3,
-        strata.treelet_switches,
-        strata.reconfigurations
-    )];
+    let extra = vec![
+        format!(
+            "stream memory    {} paths, {} pushes, {} pops, {} path records, {:.3} mJ; {} treelet \
+             switches, {} reconfigurations",
+            strata.paths,
+            strata.stream.pushes,
+            strata.stream.pops,
+            strata.stream.path_reads + strata.stream.path_writes,
+            strata.stream_energy_j * 1e3,
+            strata.treelet_switches,
+            strata.reconfigurations
+        ),
+        format!(
+            "buffer sharing   {:.2} TMs on a buffer when one joins it (at most {}); {} pops \
+             refused for their bank",
+            strata.holders_at_pick as f64 / strata.treelet_switches.max(1) as f64,
+            strata.max_holders,
+            strata.bank_conflicts_by_op[0],
+        ),
+    ];
     let ran = Ran {
         out,
         params: r.params,
