@@ -216,6 +216,28 @@ pub fn table3(r: &Results) -> String {
     )
 }
 
+/// The rows of `a` and `b` on the viewpoints both have (a row without a viewpoint counts as
+/// one viewpoint), so that a partly run grid compares the two units on the same cameras; and
+/// whether they have any in common. With none in common, or one side empty, both are kept
+/// as they are (their means are shown, their ratio is not).
+fn same_viewpoints<'a>(a: Vec<&'a Row>, b: Vec<&'a Row>) -> (Vec<&'a Row>, Vec<&'a Row>, bool) {
+    let key = |r: &Row| r.num(VIEWPOINT).map(f64::to_bits);
+    let common: Vec<Option<u64>> = a
+        .iter()
+        .map(|r| key(r))
+        .filter(|k| b.iter().any(|r| key(r) == *k))
+        .collect();
+    if common.is_empty() {
+        return (a, b, false);
+    }
+    let keep = |rows: Vec<&'a Row>| -> Vec<&'a Row> {
+        rows.into_iter()
+            .filter(|r| common.contains(&key(r)))
+            .collect()
+    };
+    (keep(a), keep(b), true)
+}
+
 /// Table 4: one T&I unit, SPTRV against PPTRV.
 pub fn table4(r: &Results) -> String {
     let sp = groups(r, |a, row| {
@@ -260,8 +282,9 @@ pub fn table4(r: &Results) -> String {
         ));
         let (s_rows, s_missing) = ours(&sp, scene, kind);
         let (p_rows, p_missing) = ours(&pp, scene, kind);
+        let (s_rows, p_rows, paired) = same_viewpoints(s_rows, p_rows);
         let ratio = match (Val::mean(&s_rows, MRAYS), Val::mean(&p_rows, MRAYS)) {
-            (Some(s), Some(p)) => f2(p.value / s.value),
+            (Some(s), Some(p)) if paired => f2(p.value / s.value),
             _ => "–".into(),
         };
         body.push((
@@ -279,7 +302,7 @@ pub fn table4(r: &Results) -> String {
     table(
         "sgrt-table4",
         "SGRT Table 4: one T&amp;I unit, the single pipelined traversal unit (SPTRV) against the parallel pipelined one (PPTRV), 1024×768, 32 samples per pixel. \
-         Ours: one-core runs with the shader off, averaged over viewpoints. Our step counts one step per sub-pipeline pass, about three times the paper's; \
+         Ours: one-core runs with the shader off, averaged over the viewpoints both units ran. Our step counts one step per sub-pipeline pass, about three times the paper's; \
          the SPTRV/PPTRV step ratio is comparable (<code>docs/SGRT.md</code>, \"Steps\").",
         &head,
         &body,
@@ -530,6 +553,48 @@ mod tests {
         // A hit rate the run lacks is "n/a", not a number.
         assert!(t5.contains("<td class=\"missing\">n/a</td>"));
         assert!(table6(&r).contains("not run"));
+    }
+
+    #[test]
+    fn table4_compares_the_units_on_the_viewpoints_both_ran() {
+        // SPTRV ran viewpoints 1 and 2, PPTRV only 1 (a grid stopped part way): both columns
+        // and the ratio use viewpoint 1 alone.
+        let at = |point, arch, v: f64, mrays| {
+            let (a, mut row) = sgrt_row(point, arch, 1.0, "primary", mrays);
+            row.values.insert(VIEWPOINT.into(), Cell::Num(v));
+            (a, row)
+        };
+        let r = Results {
+            sources: vec!["t.csv".into()],
+            rows: vec![
+                at(0, Arch::SgrtSptrv, 1.0, 10.0),
+                at(1, Arch::SgrtSptrv, 2.0, 40.0),
+                at(2, Arch::Sgrt1, 1.0, 12.0),
+            ],
+        };
+        let html = table4(&r);
+        assert!(
+            html.contains("data-col=\"sgrt.mrays_per_second\" data-points=\"0\" data-value=\"10\""),
+            "{html}"
+        );
+        assert!(
+            html.contains("<td>1.20</td>"),
+            "ratio 12/10, not 12/25: {html}"
+        );
+        // No viewpoint in common: the means stand, the ratio is not given.
+        let r = Results {
+            sources: vec!["t.csv".into()],
+            rows: vec![
+                at(1, Arch::SgrtSptrv, 2.0, 40.0),
+                at(2, Arch::Sgrt1, 1.0, 12.0),
+            ],
+        };
+        let html = table4(&r);
+        assert!(
+            html.contains("data-points=\"1\" data-value=\"40\""),
+            "{html}"
+        );
+        assert!(!html.contains("<td>0.30</td>"), "{html}");
     }
 
     #[test]
