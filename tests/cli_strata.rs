@@ -208,3 +208,53 @@ fn bench_sim_runs_strata_and_bad_settings_name_their_key() {
         &["arch.trax.l2.size_bytes", "arch.strata.l2_bytes"],
     );
 }
+
+#[test]
+fn timeline_writes_a_row_per_interval_and_bad_settings_name_their_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let stdout = simulate(&a, &["--timeline", "2000"]);
+    assert!(stdout.contains("timeline.csv"), "{stdout}");
+    let csv = fs::read_to_string(a.join("timeline.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    for col in [
+        "issue_rate",
+        "dram_reads",
+        "stream_pops",
+        "root_holders",
+        "live_paths",
+    ] {
+        assert!(header.split(',').any(|c| c == col), "{header}");
+    }
+    let stats: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(a.join("stats.json")).unwrap()).unwrap();
+    let cycles = stats["trax"]["cycles"].as_u64().unwrap();
+    assert_eq!(csv.lines().count() as u64 - 1, cycles.div_ceil(2000));
+    // The same key in a config file, and the same run again: byte-identical.
+    let cfg = dir.path().join("c.toml");
+    fs::write(&cfg, "[sim]\ntimeline_cycles = 2000\n").unwrap();
+    simulate(&b, &["--config", cfg.to_str().unwrap()]);
+    assert_eq!(csv, fs::read_to_string(b.join("timeline.csv")).unwrap());
+    // Without it, no file.
+    let c = dir.path().join("c");
+    simulate(&c, &[]);
+    assert!(!c.join("timeline.csv").exists());
+    let e = fails(
+        rtsim()
+            .args(["simulate", "--arch", "strata", "--timeline", "0", "--out"])
+            .arg(dir.path().join("d")),
+    );
+    assert!(
+        e.contains("sim.timeline_cycles") && e.contains("at least 1"),
+        "{e}"
+    );
+    let e = fails(
+        rtsim()
+            .args(["simulate", "--arch", "sgrt", "--timeline", "100", "--out"])
+            .arg(dir.path().join("e")),
+    );
+    assert!(
+        e.contains("sim.timeline_cycles") && e.contains("sgrt"),
+        "{e}"
+    );
+}

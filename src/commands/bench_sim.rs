@@ -102,11 +102,12 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
     );
     // STRaTA's engine runs on one thread; the baseline's fast engine on `--threads` (one
     // shard of TMs each).
-    let threads = if strata.is_some() || r.chip.engine != "fast" {
-        1
-    } else {
-        s.pool.current_num_threads().min(r.chip.tms as usize)
-    };
+    let threads =
+        if strata.is_some() || r.chip.engine != "fast" || cfg.sim.timeline_cycles.is_some() {
+            1
+        } else {
+            s.pool.current_num_threads().min(r.chip.tms as usize)
+        };
     println!(
         "chip             {} TMs × {} TPs = {} TPs, {} engine on {} host thread{}{}",
         r.chip.tms,

@@ -401,6 +401,7 @@ fn settings_of(c: &crate::cli::Command) -> Result<Vec<(String, String)>> {
         "sim.window" => "--window",
         "sim.cycle_limit" => "--cycle-limit",
         "sim.mode" => "--mode",
+        "sim.timeline_cycles" => "--timeline",
         "arch.preset" => "--arch",
         "dram.preset" => "--dram-preset",
         "scene.name" => "--scene",

@@ -147,6 +147,16 @@ impl Validate for RunConfig {
         if self.arch.is_trax() {
             self.arch.trax.validate_run(&self.trace)?;
         }
+        if self.sim.timeline_cycles.is_some() && !(self.arch.is_trax() || self.arch.is_strata()) {
+            return Err(ConfigError::key(
+                "sim.timeline_cycles",
+                format!(
+                    "records a time series on the TRaX-family chips only (arch.preset = \
+                     trax-baseline or strata); arch.preset = {} has none: unset it",
+                    self.arch.preset
+                ),
+            ));
+        }
         if self.arch.is_strata() {
             self.arch.strata.validate_run(
                 &self.trace,

@@ -28,6 +28,11 @@ pub struct SimConfig {
     pub cycle_limit: Option<u64>,
     /// `fast` (default) or `reference`.
     pub mode: SimMode,
+    /// Record the frame's time series (`timeline.csv`: instructions, atomic grants, cache,
+    /// DRAM and, on STRaTA, stream-memory counters per interval) in intervals of this many
+    /// core cycles. TRaX-family chips (`trax-baseline`, `strata`) only; the run then uses one
+    /// host thread. Unset = none.
+    pub timeline_cycles: Option<u64>,
 }
 
 impl Default for SimConfig {
@@ -36,6 +41,7 @@ impl Default for SimConfig {
             window: None,
             cycle_limit: None,
             mode: SimMode::Fast,
+            timeline_cycles: None,
         }
     }
 }
@@ -55,6 +61,13 @@ impl SimConfig {
         if self.cycle_limit == Some(0) {
             return Err(ConfigError::range(
                 "sim.cycle_limit",
+                0,
+                "at least 1, or unset",
+            ));
+        }
+        if self.timeline_cycles == Some(0) {
+            return Err(ConfigError::range(
+                "sim.timeline_cycles",
                 0,
                 "at least 1, or unset",
             ));

@@ -306,6 +306,11 @@ impl Ready {
         self.holders[b as usize]
     }
 
+    /// Buffers holding rays now.
+    pub(crate) fn nonempty(&self) -> usize {
+        self.by_id.len()
+    }
+
     /// A TM leaves buffer `b`.
     pub(crate) fn release(&mut self, b: u32) {
         self.change(b, |r| r.holders[b as usize] -= 1);

@@ -42,6 +42,7 @@ use rtsim_trace::{
 use rtsim_trax::isa::{Class, Mem, StreamOp, UNIT_CLASSES};
 use rtsim_trax::program::SHADING_ORDER;
 use rtsim_trax::stats::{IssueStats, Stall};
+use rtsim_trax::timeline::Column;
 use rtsim_trax::work::PixelDone;
 use rtsim_trax::{
     Chip, ChipError, Frame, Options, Output, Progress, Run, Source, SourceAccess, TraxConfig,
@@ -120,6 +121,29 @@ enum Phase {
 
 /// Most blocks queued at once: a transition's shading (every kernel at most twice, three
 /// record accesses), the path record, push, pop and a step's two blocks.
+/// The root treelet's buffer: every path's first ray and every successor enter it.
+const ROOT: u32 = 0;
+
+/// STRaTA's columns of the time series (`sim.timeline_cycles`), after the chip's: stream
+/// accesses, buffer picks (with the TMs on the picked buffer summed, as
+/// `strata.holders_at_pick`) and reconfigurations in the interval, then levels at its end:
+/// rays in the stream memory, in the root buffer, TMs on the root buffer, buffers holding rays,
+/// paths in flight, and the most TMs on a picked buffer in the interval.
+const TIMELINE: [Column; 12] = [
+    Column::count("stream_pops"),
+    Column::count("stream_pushes"),
+    Column::count("path_records"),
+    Column::count("treelet_switches"),
+    Column::count("holders_at_pick"),
+    Column::count("reconfigurations"),
+    Column::level("rays_buffered"),
+    Column::level("root_rays"),
+    Column::level("root_holders"),
+    Column::level("buffers_with_rays"),
+    Column::level("live_paths"),
+    Column::level("max_holders"),
+];
+
 const QUEUE: usize = 2 * rtsim_trace::workload::KERNELS + 3 + 8;
 
 /// A TP's STRaTA work. `repr(C)` keeps what every `next` reads (the queue's position, the
@@ -242,6 +266,8 @@ pub struct StrataSource<'a> {
     caps_node: [u8; UNIT_CLASSES],
     caps_tri: [u8; UNIT_CLASSES],
     facts: StrataFacts,
+    /// The most TMs on a picked buffer since the time series' last sample.
+    interval_max_holders: u32,
 }
 
 impl std::fmt::Debug for StrataSource<'_> {
@@ -358,6 +384,7 @@ impl<'a> StrataSource<'a> {
             caps_tri,
             stream,
             facts,
+            interval_max_holders: 0,
         })
     }
 
@@ -762,6 +789,7 @@ impl<'a> StrataSource<'a> {
             let holders = self.ready.holders(b);
             self.facts.holders_at_pick += holders as u64;
             self.facts.max_holders = self.facts.max_holders.max(holders);
+            self.interval_max_holders = self.interval_max_holders.max(holders);
         }
         let b = self.tms[tm].treelet.expect("a treelet");
         let bank = self.stream.pop_bank(b).expect("the buffer holds a ray");
@@ -954,6 +982,28 @@ impl Source for StrataSource<'_> {
         let n = self.cfg.triangle_pipelines as usize;
         let free_at = self.tms[tm].tri_free[..n].iter().copied().min()?;
         Some((n as u32, free_at, Stall::Stream))
+    }
+
+    fn timeline_columns(&self) -> &'static [Column] {
+        &TIMELINE
+    }
+
+    fn timeline_values(&mut self, out: &mut Vec<u64>) {
+        let st = self.stream.stats();
+        out.extend_from_slice(&[
+            st.pops,
+            st.pushes,
+            st.path_reads + st.path_writes,
+            self.facts.treelet_switches,
+            self.facts.holders_at_pick,
+            self.facts.reconfigurations,
+            self.stream.len() as u64,
+            self.stream.count(ROOT) as u64,
+            self.ready.holders(ROOT) as u64,
+            self.ready.nonempty() as u64,
+            self.live_paths as u64,
+            std::mem::take(&mut self.interval_max_holders) as u64,
+        ]);
     }
 
     fn refused_again(&mut self, _tp: usize, class: Class, _mem: Mem, n: u64) {

@@ -63,6 +63,17 @@ fn run_to(
     engine: Engine,
     cycle_limit: Option<u64>,
 ) -> StrataOutput {
+    run_timeline(w, cfg, trax, engine, cycle_limit, None)
+}
+
+fn run_timeline(
+    w: &World,
+    cfg: &StrataConfig,
+    trax: &TraxConfig,
+    engine: Engine,
+    cycle_limit: Option<u64>,
+    timeline: Option<u64>,
+) -> StrataOutput {
     let p = params(w);
     let integ = Integrator::new(&w.scene, &w.tracer, p);
     let pixels: Vec<u32> = (0..w.width * w.height).collect();
@@ -82,6 +93,7 @@ fn run_to(
             cycle_limit,
             seed: 1,
             threads: 1,
+            timeline,
         },
         &mut |_| {},
     )
@@ -276,4 +288,66 @@ fn a_tms_per_buffer_cap_at_or_above_the_tm_count_is_no_cap() {
     assert!(free.strata.max_holders > 1, "{:?}", free.strata);
     assert!(free.strata.holders_at_pick > free.strata.treelet_switches);
     assert!(free.strata.max_holders <= 3);
+}
+
+#[test]
+fn the_time_series_is_the_same_from_both_engines_and_adds_up() {
+    // Two stream banks and 24 TPs per TM: parked pops, queued triangle tests and the fill's
+    // wait on the counter all cross interval boundaries.
+    let w = world(12, 10);
+    let cfg = StrataConfig {
+        stream: StreamConfig {
+            banks: 2,
+            ..StreamConfig::default()
+        },
+        ..StrataConfig::default()
+    };
+    for (every, limit) in [(400, None), (97, None), (1000, Some(5555))] {
+        let f = run_timeline(&w, &cfg, &chip(3, 24), Engine::Fast, limit, Some(every));
+        let r = run_timeline(
+            &w,
+            &cfg,
+            &chip(3, 24),
+            Engine::Reference,
+            limit,
+            Some(every),
+        );
+        let (tf, tr) = (
+            f.out.timeline.as_ref().unwrap(),
+            r.out.timeline.as_ref().unwrap(),
+        );
+        assert_eq!(tf.rows.len(), tr.rows.len(), "every {every}");
+        for (a, b) in tf.rows.iter().zip(&tr.rows) {
+            assert_eq!(
+                a, b,
+                "every {every}, limit {limit:?}: row at cycle {}",
+                a.start
+            );
+        }
+        assert!(tf.rows.len() > 3, "{} rows", tf.rows.len());
+        let sum = |c: &str| tf.column(c).unwrap().iter().sum::<u64>();
+        if limit.is_none() {
+            assert_eq!(sum("instructions"), f.out.report.instructions.total);
+            let last = |c: &str| *tf.column(c).unwrap().last().unwrap();
+            assert_eq!(last("live_paths"), 0, "every path retired");
+            assert_eq!(last("rays_buffered"), 0, "the buffers drained");
+        }
+        assert_eq!(sum("stream_pops"), f.strata.stream.pops);
+        assert_eq!(sum("stream_pushes"), f.strata.stream.pushes);
+        assert_eq!(sum("treelet_switches"), f.strata.treelet_switches);
+        assert_eq!(sum("holders_at_pick"), f.strata.holders_at_pick);
+        assert_eq!(
+            tf.column("max_holders").unwrap().into_iter().max().unwrap(),
+            f.strata.max_holders as u64
+        );
+        // The fill: paths start in the first rows, and their first rays wait in the root
+        // buffer.
+        let live = tf.column("live_paths").unwrap();
+        assert!(live[0] > 0 && tf.column("root_rays").unwrap()[..3].iter().any(|&n| n > 0));
+        // The time series changes nothing else.
+        let plain = run_to(&w, &cfg, &chip(3, 24), Engine::Fast, limit);
+        assert_eq!(plain.out.report.issue, f.out.report.issue);
+        assert_eq!(plain.strata, f.strata);
+        assert!(plain.out.timeline.is_none());
+    }
 }

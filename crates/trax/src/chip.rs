@@ -14,6 +14,7 @@ use crate::isa::{CLASSES, Class, Inst, Mem, NO_REG, UNIT_CLASSES};
 use crate::program::{Program, Run};
 use crate::source::{Source, SourceAccess, TraxSource};
 use crate::stats::{IssueStats, Stall};
+use crate::timeline::Sampler;
 use crate::work::PixelDone;
 use rtsim_cache::{Completion, Hierarchy, HierarchyError, Outcome, Request, Topology};
 use rtsim_config::ConfigError;
@@ -399,6 +400,8 @@ pub struct Chip<'a, S: Source = TraxSource<'a>> {
     pub(crate) rays_done: u64,
     /// TPs not yet halted.
     pub(crate) live: usize,
+    /// The frame's time series, when asked for (`Options::timeline`).
+    pub(crate) sampler: Sampler,
     _life: std::marker::PhantomData<&'a ()>,
 }
 
@@ -507,6 +510,7 @@ impl<'a, S: Source> Chip<'a, S> {
             pixels_done: 0,
             rays_done: 0,
             live: n,
+            sampler: Sampler::default(),
             src,
             _life: std::marker::PhantomData,
         })
@@ -564,6 +568,29 @@ impl<'a, S: Source> Chip<'a, S> {
         self.cores[tp].retire(&d, lat, c, &mut self.issue);
     }
 
+    /// Sample the time series at every interval boundary up to and including `t`: the
+    /// engine has handled every cycle before `t` and nothing of `t`.
+    #[inline(always)]
+    pub(crate) fn sample_until(&mut self, t: u64) {
+        if t >= self.sampler.next {
+            self.sample_boundaries(t);
+        }
+    }
+
+    #[inline(never)]
+    fn sample_boundaries(&mut self, t: u64) {
+        while self.sampler.next <= t {
+            let src = &mut self.src;
+            self.sampler.sample(&self.hier, |v| src.timeline_values(v));
+        }
+    }
+
+    /// Start the time series: a sample every `every` cycles (`None`: none) of a run stopped
+    /// at `limit`.
+    pub(crate) fn start_timeline(&mut self, every: Option<u64>, limit: Option<u64>) {
+        self.sampler = Sampler::new(every, limit, self.src.timeline_columns());
+    }
+
     /// The key instruction `i` of TP `tp` arbitrates with: the TP's key, raised to the
     /// completion cycle of any miss it reads or overwrites.
     #[inline]
@@ -592,6 +619,7 @@ impl<'a, S: Source> Chip<'a, S> {
                     self.issue.stall[Stall::Atomic as usize] += 1;
                     return Ok(Offered::Busy { retry_at: t + 1 });
                 }
+                self.sampler.atomic_grants += 1;
                 let next_pixel = self.src.atomic(tp);
                 let lat = self.lat[Class::Atomic as usize];
                 self.cores[tp].atomic_granted(&d, lat, next_pixel, &mut self.heat, t);
@@ -637,6 +665,7 @@ impl<'a, S: Source> Chip<'a, S> {
             ),
         }
         self.cores[tp].accepted(&d, t, &mut self.issue);
+        self.sampler.issue(t);
         Ok(Offered::Accepted)
     }
 
@@ -685,6 +714,14 @@ impl<S: Source> Chip<'_, S> {
             if c.wait == Wait::Halted {
                 self.issue.idle += cycles.saturating_sub(c.halted_at);
             }
+        }
+        // Boundaries of the time series the engine stopped short of (it stops once every TP
+        // has halted, or at the limit): the memory system's events before each, then the
+        // sample, as an engine running on would have taken it.
+        while self.sampler.next < cycles {
+            self.hier.advance_to(self.sampler.next - 1)?;
+            let t = self.sampler.next;
+            self.sample_boundaries(t);
         }
         let drained = self.hier.drain()?;
         let end = cycles.max(drained).max(self.hier.now());
@@ -774,12 +811,16 @@ impl<S: Source> Chip<'_, S> {
             energy,
             issue: self.issue.clone(),
         };
+        let src = &mut self.src;
+        let running = self.sampler.running(&self.hier, |v| src.timeline_values(v));
+        let timeline = self.sampler.finish(cycles, tps, &running);
         Ok((
             crate::Output {
                 pixels: self.pixels,
                 heat: self.heat,
                 rays: self.frame,
                 report,
+                timeline,
             },
             self.src,
         ))

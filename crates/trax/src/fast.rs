@@ -817,6 +817,7 @@ pub fn run<S: Source>(
                 .min(c.unwrap_or(u64::MAX))
                 .min(d.unwrap_or(u64::MAX)),
         };
+        chip.sample_until(t);
         if limit.is_some_and(|l| t >= l) {
             break;
         }
@@ -987,13 +988,31 @@ fn resume<S: Source>(
             core.wait = Wait::Ready;
         }
     }
-    run_ahead(chip, cal, w, tp, t)
+    // Two copies of the booking loop: counting issues for the time series is a test per
+    // instruction, which the copy without it does not pay.
+    if chip.sampler.every == 0 {
+        run_ahead::<S, false>(chip, cal, w, tp, t)
+    } else {
+        run_ahead_sampled(chip, cal, w, tp, t)
+    }
+}
+
+/// [`run_ahead`] counting issues for the time series, kept out of the engine's loop.
+#[inline(never)]
+fn run_ahead_sampled<S: Source>(
+    chip: &mut Chip<'_, S>,
+    cal: &mut Calendar,
+    w: &mut Waits,
+    tp: usize,
+    t: u64,
+) -> Result<(), ChipError> {
+    run_ahead::<S, true>(chip, cal, w, tp, t)
 }
 
 /// Book TP `tp`'s instructions from its current one, with priority key `t`, up to its next
 /// access (scheduled as an event, or offered at once if it falls in cycle `t`) or an operand
 /// whose miss has not returned.
-fn run_ahead<S: Source>(
+fn run_ahead<S: Source, const TIMELINE: bool>(
     chip: &mut Chip<'_, S>,
     cal: &mut Calendar,
     w: &mut Waits,
@@ -1028,6 +1047,9 @@ fn run_ahead<S: Source>(
         );
         if !d.sync {
             chip.retire_issue(tp, i, c);
+            if TIMELINE {
+                chip.sampler.issue(c);
+            }
             continue;
         }
         let core = &mut chip.cores[tp];

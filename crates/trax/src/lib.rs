@@ -41,6 +41,7 @@ pub mod reference;
 pub mod report;
 pub mod source;
 pub mod stats;
+pub mod timeline;
 pub mod work;
 
 #[cfg(test)]
@@ -97,6 +98,10 @@ pub struct Options {
     /// Host threads of the fast engine on the TRaX program ([`par`]): results are
     /// bit-identical whatever the number. 1 (or 0): [`fast`] alone.
     pub threads: usize,
+    /// Record the frame's time series ([`timeline`]) in intervals of this many core cycles.
+    /// It runs on one host thread ([`fast`] or [`reference`]): the parallel engine does not
+    /// sample.
+    pub timeline: Option<u64>,
 }
 
 /// Where a run is, for progress bars.
@@ -119,6 +124,8 @@ pub struct Output {
     /// The rays traced, by kind, with their counters.
     pub rays: FrameStats,
     pub report: TraxReport,
+    /// The time series, if [`Options::timeline`] asked for one.
+    pub timeline: Option<timeline::Timeline>,
 }
 
 /// Simulate a frame on the chip `cfg` with `dram` behind it.
@@ -145,7 +152,9 @@ pub fn simulate(
         opts,
         progress,
         |chip, limit, tick| match opts.engine {
-            Engine::Fast if opts.threads > 1 => par::run(chip, opts.threads, limit, tick),
+            Engine::Fast if opts.threads > 1 && opts.timeline.is_none() => {
+                par::run(chip, opts.threads, limit, tick)
+            }
             Engine::Fast => fast::run(chip, limit, tick),
             Engine::Reference => reference::run(chip, limit, tick),
         },
@@ -191,6 +200,7 @@ fn run_with<'c, S: Source>(
             rays,
         })
     };
+    chip.start_timeline(opts.timeline.filter(|&n| n > 0), opts.cycle_limit);
     let last = engine(&mut chip, opts.cycle_limit, &mut tick)?;
     let (out, src) = chip.finish(last, opts, program)?;
     progress(Progress {

@@ -29,6 +29,7 @@ pub fn run<S: Source>(
     let mut done = std::mem::take(&mut chip.completions);
     let mut t = 0u64;
     while chip.live > 0 {
+        chip.sample_until(t);
         if limit.is_some_and(|l| t >= l) {
             break;
         }
@@ -115,6 +116,7 @@ pub fn run<S: Source>(
                 accesses.push(tp as u32);
             } else {
                 chip.retire_issue(tp, i, t);
+                chip.sampler.issue(t);
             }
         }
         // Two rounds: the accesses booked before this cycle, TM by TM, oldest first (by key,

@@ -10,6 +10,7 @@ use crate::chip::ChipError;
 use crate::isa::{Class, Mem, UNIT_CLASSES};
 use crate::program::Run;
 use crate::stats::Stall;
+use crate::timeline::Column;
 use crate::work::{Ctx, PixelDone, Work};
 use rtsim_trace::FrameStats;
 
@@ -94,6 +95,17 @@ pub trait Source {
     ) -> (f64, f64) {
         let _ = (cfg, issue);
         (0.0, 0.0)
+    }
+    /// Columns the source adds to the frame's time series ([`crate::timeline`]): counters
+    /// and levels of its shared state that change only at accesses, so that both engines
+    /// agree on them at every cycle boundary.
+    fn timeline_columns(&self) -> &'static [Column] {
+        &[]
+    }
+    /// The running values of [`Source::timeline_columns`], appended to `out` (a
+    /// most-in-the-interval level starts again after each call).
+    fn timeline_values(&mut self, out: &mut Vec<u64>) {
+        let _ = out;
     }
     /// Hint: TP `tp`'s state is about to be used (the fast engine prefetches it).
     #[inline(always)]

@@ -85,6 +85,7 @@ fn run(cfg: &TraxConfig, block: &[Inst], scripts: &[bool], engine: Engine) -> Ou
         cycle_limit: None,
         seed: 1,
         threads: 1,
+        timeline: None,
     };
     let last = match engine {
         Engine::Fast => crate::fast::run(&mut chip, None, &mut |_, _, _| {}).unwrap(),

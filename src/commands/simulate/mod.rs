@@ -63,6 +63,10 @@ pub struct FrameArgs {
     /// Stop after this many core cycles (`sim.cycle_limit`).
     #[arg(long, value_name = "CYCLES", value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
     pub cycle_limit: Option<u64>,
+    /// Write the frame's time series to `timeline.csv`, one row per this many core cycles
+    /// (`sim.timeline_cycles`; TRaX-family chips).
+    #[arg(long, value_name = "CYCLES", value_parser = crate::cli::u64_arg, allow_negative_numbers = true)]
+    pub timeline: Option<u64>,
     /// Timing engine: fast (default) or reference (cycle by cycle) (`sim.mode`).
     #[arg(long)]
     pub mode: Option<String>,
@@ -103,18 +107,9 @@ impl FrameArgs {
         );
         s(
             "sim.cycle_limit",
-            self.cycle_limit
-                .map(|c| {
-                    i64::try_from(c).map(Value::Integer).map_err(|_| {
-                        rtsim_config::ConfigError::range(
-                            "--cycle-limit",
-                            c,
-                            format!("1..={}", i64::MAX),
-                        )
-                    })
-                })
-                .transpose()?,
+            cycles("--cycle-limit", self.cycle_limit)?,
         );
+        s("sim.timeline_cycles", cycles("--timeline", self.timeline)?);
         s("sim.mode", self.mode.clone().map(Value::String));
         s(
             "output.dir",
@@ -124,6 +119,16 @@ impl FrameArgs {
         );
         Ok(flags)
     }
+}
+
+/// A count of cycles given as `flag`, as a TOML integer (which holds up to `i64::MAX`).
+fn cycles(flag: &str, v: Option<u64>) -> Result<Option<Value>> {
+    Ok(v.map(|c| {
+        i64::try_from(c)
+            .map(Value::Integer)
+            .map_err(|_| rtsim_config::ConfigError::range(flag, c, format!("1..={}", i64::MAX)))
+    })
+    .transpose()?)
 }
 
 /// What an architecture model produced for a frame.
@@ -144,11 +149,14 @@ pub struct SimOutput {
     pub files: Vec<(&'static str, Vec<u8>)>,
 }
 
-/// The files a run writes besides the frame's: SGRT's `hits.bin` when it traces a rays file.
+/// The files a run writes besides the frame's: SGRT's `hits.bin` when it traces a rays file,
+/// a TRaX-family chip's `timeline.csv` when `sim.timeline_cycles` asks for it.
 fn extra_outputs(r: &rtsim_run::Resolved) -> &'static [&'static str] {
     let a = &r.config.arch;
     if a.preset.starts_with("sgrt") && a.sgrt.rays_file.is_some() {
         &["hits.bin"]
+    } else if r.config.sim.timeline_cycles.is_some() && (a.is_trax() || a.is_strata()) {
+        &["timeline.csv"]
     } else {
         &[]
     }

@@ -68,6 +68,7 @@ pub(crate) fn frame_on<O>(s: &Session, chip: Box<ChipRun<'_, O>>) -> Result<Ran<
             cycle_limit: cfg.sim.cycle_limit,
             seed: cfg.seed,
             threads: s.pool.current_num_threads(),
+            timeline: cfg.sim.timeline_cycles,
         },
         &mut |p| {
             bar.set_position(p.pixels_done);
@@ -142,6 +143,15 @@ pub(crate) fn output(
         tp_cycles / seconds / 1e6,
         r.instructions.total as f64 / seconds / 1e6
     ));
+    let mut files = Vec::new();
+    if let Some(tl) = &out.timeline {
+        summary.push(format!(
+            "timeline         {} intervals of {} cycles in timeline.csv",
+            tl.rows.len(),
+            tl.every
+        ));
+        files.push(("timeline.csv", tl.to_csv().into_bytes()));
+    }
     let run = RunFacts::of(s, &params, pixels.len(), &out.rays);
     Ok(SimOutput {
         heat: out.heat.clone(),
@@ -155,6 +165,6 @@ pub(crate) fn output(
             cycles_per_second,
         },
         summary,
-        files: Vec::new(),
+        files,
     })
 }

@@ -126,6 +126,27 @@ pub fn simulate_until(
     simulate_threads(w, p, cfg, engine, pixels, cycle_limit, 1)
 }
 
+/// [`simulate_until`] recording the time series every `every` cycles, on `threads` host
+/// threads (the time series runs on one).
+pub fn simulate_timeline(
+    w: &World,
+    p: &WorkloadParams,
+    cfg: &TraxConfig,
+    engine: Engine,
+    cycle_limit: Option<u64>,
+    every: u64,
+    threads: usize,
+) -> Output {
+    let opts = Options {
+        engine,
+        cycle_limit,
+        seed: 1,
+        threads,
+        timeline: Some(every),
+    };
+    simulate_with(w, p, cfg, &all_pixels(w), &opts)
+}
+
 /// [`simulate_until`] with the fast engine on `threads` host threads.
 pub fn simulate_threads(
     w: &World,
@@ -135,6 +156,24 @@ pub fn simulate_threads(
     pixels: &[u32],
     cycle_limit: Option<u64>,
     threads: usize,
+) -> Output {
+    let opts = Options {
+        engine,
+        cycle_limit,
+        seed: 1,
+        threads,
+        timeline: None,
+    };
+    simulate_with(w, p, cfg, pixels, &opts)
+}
+
+/// Simulate `pixels` of `w` on `cfg` with `opts`.
+pub fn simulate_with(
+    w: &World,
+    p: &WorkloadParams,
+    cfg: &TraxConfig,
+    pixels: &[u32],
+    opts: &Options,
 ) -> Output {
     let integ = Integrator::new(&w.scene, &w.tracer, p.clone());
     rtsim_trax::simulate(
@@ -147,12 +186,7 @@ pub fn simulate_threads(
             pixels,
             image_pixels: (w.width * w.height) as usize,
         },
-        &Options {
-            engine,
-            cycle_limit,
-            seed: 1,
-            threads,
-        },
+        opts,
         &mut |_| {},
     )
     .unwrap()
