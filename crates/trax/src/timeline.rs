@@ -132,7 +132,6 @@ pub(crate) struct Sampler {
     /// Columns after `instructions`: the chip's, then the source's.
     columns: Vec<Column>,
     pub(crate) atomic_grants: u64,
-    scratch: Vec<u64>,
 }
 
 impl Default for Sampler {
@@ -155,7 +154,6 @@ impl Sampler {
             issued: Vec::new(),
             samples: Vec::new(),
             atomic_grants: 0,
-            scratch: Vec::new(),
         }
     }
 
@@ -180,15 +178,11 @@ impl Sampler {
         }
     }
 
-    /// Record the boundary `self.next`: the chip's running values now, then the source's.
+    /// Record the boundary `self.next`: the running values now ([`Sampler::running`]).
     pub(crate) fn sample(&mut self, hier: &Hierarchy<Dram>, source: impl FnOnce(&mut Vec<u64>)) {
-        let mut v = std::mem::take(&mut self.scratch);
-        v.clear();
-        chip_values(self.atomic_grants, hier, &mut v);
-        source(&mut v);
+        let v = self.running(hier, source);
         debug_assert_eq!(v.len(), self.columns.len());
         self.samples.extend_from_slice(&v);
-        self.scratch = v;
         self.next += self.every;
     }
 
