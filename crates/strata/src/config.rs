@@ -57,6 +57,23 @@ pub enum Switch {
     Drained,
 }
 
+/// How the TPs fill the stream memory with the first paths before rendering (STRaTA §3.1:
+/// "The programmer fills the ray buffers with some initial rays before rendering begins, using
+/// provided application programming interface (API) functions to determine maximum stream
+/// memory capacity"; the paper does not say how the threads share the fill).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Fill {
+    /// Each TP takes path slots from the global atomic counter, one grant per slot, as the
+    /// baseline takes pixels (default: the TRaX programming model's one shared counter).
+    #[default]
+    Counter,
+    /// TP `i` of `T` fills slots `i`, `i + T`, `i + 2T`, … without the counter (the slot count
+    /// is known from the API, so the split needs no communication); the pixels after the fill
+    /// still come from the counter.
+    Static,
+}
+
 impl Policy {
     pub fn name(self) -> &'static str {
         match self {
@@ -155,6 +172,11 @@ pub struct StrataConfig {
     /// (a path has one ray at a time), 32..=256, a multiple of 4. Default 64 (assumed: our
     /// path tracer's state in one line; `docs/STRATA.md` "Path state").
     pub path_bytes: u32,
+    /// How the TPs fill the stream memory before rendering: `counter` (default: one atomic
+    /// grant per path slot) or `static` (each TP takes every `T`-th slot, no counter).
+    /// Assumed: the paper does not say; a large stream memory's fill waits on the counter's
+    /// one grant per cycle (`docs/STRATA.md` "The fill").
+    pub fill: Fill,
 }
 
 impl Default for StrataConfig {
@@ -171,6 +193,7 @@ impl Default for StrataConfig {
             reconfigure_cycles: 1,
             poll_cycles: 16,
             path_bytes: 64,
+            fill: Fill::Counter,
         }
     }
 }

@@ -31,7 +31,7 @@ pub mod stream;
 pub mod timed;
 pub mod world;
 
-pub use config::{Policy, StrataConfig, StreamConfig, Switch};
+pub use config::{Fill, Policy, StrataConfig, StreamConfig, Switch};
 pub use flow::{FlowChip, FlowError, FlowOutput, FlowStats, Frame};
 pub use stream::{StreamLayout, StreamMemory, StreamStats};
 pub use world::World;

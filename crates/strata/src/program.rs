@@ -24,7 +24,8 @@ use rtsim_trace::kernels::box_entry;
 use rtsim_trace::kernels::triangle::{plucker_exit, plucker_exit as exits};
 use rtsim_trax::isa::{Class, INST_BYTES, Inst, Mem, NO_REG, Reg, StreamOp, regs};
 use rtsim_trax::program::asm::{
-    self, Traced, bitwise, branch, imm, int_add, last_compare, load, load_value, output, record,
+    self, Traced, bitwise, branch, imm, int_add, int_mul, last_compare, load, load_value, output,
+    record,
 };
 use rtsim_trax::program::{BlockInfo, Program, Seg};
 
@@ -103,6 +104,9 @@ pub struct StrataProgram {
     pub push: Seg,
     pub path_read: Seg,
     pub path_write: Seg,
+    /// The static fill's next path slot (`arch.strata.fill = static`): `next_pixel` without
+    /// the counter.
+    pub fill_slot: Seg,
 }
 
 struct Builder {
@@ -463,6 +467,21 @@ pub fn build() -> StrataProgram {
             (16, 0),
         )],
     );
+    let fill_slot = b.recorded(
+        "fill_slot",
+        "The static fill's next path slot (`arch.strata.fill = static`): the previous slot \
+         plus the TP count (the first is the TP's index, read like any register; assumed), the \
+         test against the slot count and its branch, then x and y from the index as \
+         `next_pixel` (int add 3, int mul 2, bitwise 1, branch 1: `next_pixel` with an add in \
+         place of its `atominc`).",
+        record(false, || {
+            let s = int_add(Traced::reg(regs::SLOT, 0.0), imm());
+            output(s, regs::SLOT);
+            branch(int_add(s, imm()));
+            let y = bitwise(int_mul(s, imm()), imm());
+            let _x = int_add(s, int_mul(y, imm()));
+        }),
+    );
     StrataProgram {
         program: b.p,
         parent,
@@ -481,6 +500,7 @@ pub fn build() -> StrataProgram {
         push,
         path_read,
         path_write,
+        fill_slot,
     }
 }
 
@@ -504,6 +524,17 @@ mod tests {
             "{} bytes",
             sp.program.bytes()
         );
+    }
+
+    #[test]
+    fn the_static_fill_block_is_next_pixel_without_the_counter() {
+        let sp = build();
+        let p = &sp.program;
+        let mut want = classes(p, p.next_pixel);
+        assert_eq!(want[Class::Atomic as usize], 1);
+        want[Class::Atomic as usize] = 0;
+        want[Class::IntAdd as usize] += 1;
+        assert_eq!(classes(p, sp.fill_slot), want);
     }
 
     #[test]

@@ -27,7 +27,7 @@
 //! The image and every ray's counters are the functional tracer's (`bit-stack`) by
 //! construction: the values come from the functional kernels; timing decides only when.
 
-use crate::config::StrataConfig;
+use crate::config::{Fill, StrataConfig};
 use crate::flow::{FlowError, Ready};
 use crate::pipeline;
 use crate::program::StrataProgram;
@@ -170,6 +170,9 @@ struct Tp {
     /// The path whose ray (or shading) the TP runs.
     path: Option<u32>,
     counter: Option<u32>,
+    /// Under `fill = static`, the next path slot this TP fills (its index, then every
+    /// TP-count-th slot after it).
+    fill: u32,
     /// The ray being traversed.
     trav: Option<State>,
     /// The held ray's counters: its path's, moved here at the pop and back at the push (so a
@@ -332,12 +335,14 @@ impl<'a> StrataSource<'a> {
         }
         let (caps_node, caps_tri) = mode_caps(&base, cfg);
         let tps = trax.total_tps() as usize;
+        let static_fill = cfg.fill == Fill::Static;
         let tp = Tp {
             phase: Phase::Fill,
             queue: [Run::default(); QUEUE],
             qlen: 0,
             qpos: 0,
             counter: None,
+            fill: 0,
             path: None,
             trav: None,
             counters: RayCounters::default(),
@@ -373,12 +378,19 @@ impl<'a> StrataSource<'a> {
                 };
                 trax.tms as usize
             ],
-            tps: vec![tp; tps],
+            tps: (0..tps as u32)
+                .map(|i| Tp {
+                    fill: i,
+                    ..tp.clone()
+                })
+                .collect(),
             paths: vec![Path::free(); n_paths as usize],
             n_paths,
-            fill_next: 0,
+            // A static fill hands every slot out at the start: no TP asks the counter for one,
+            // and the paths count as in flight (so none can look finished) until they retire.
+            fill_next: if static_fill { n_paths } else { 0 },
             pixel_next: n_paths,
-            live_paths: 0,
+            live_paths: if static_fill { n_paths } else { 0 },
             banks: vec![(u64::MAX, 0); cfg.stream.banks as usize],
             caps_node,
             caps_tri,
@@ -399,6 +411,14 @@ impl<'a> StrataSource<'a> {
         f.stream = self.stream.stats().clone();
         f.stream_energy_j = f.stream.accesses() as f64 * f.stream_access_nj * 1e-9;
         f
+    }
+
+    /// The block that gives a filling TP its next path slot.
+    fn fill_run(&self) -> Run {
+        match self.cfg.fill {
+            Fill::Counter => Run::new(self.sp.program.next_pixel),
+            Fill::Static => Run::new(self.sp.fill_slot),
+        }
     }
 
     fn push_run(&mut self, tp: usize, r: Run) {
@@ -471,7 +491,7 @@ impl<'a> StrataSource<'a> {
                     w.phase = Phase::Pop;
                     self.push_run(tp, Run::new(self.sp.pop));
                 } else {
-                    self.push_run(tp, Run::new(self.sp.program.next_pixel));
+                    self.push_run(tp, self.fill_run());
                 }
             }
             Next::Done(color) => {
@@ -488,10 +508,13 @@ impl<'a> StrataSource<'a> {
                 });
                 let w = &mut self.tps[tp];
                 w.path = Some(id);
-                if w.phase != Phase::Fill {
+                let run = if w.phase != Phase::Fill {
                     w.phase = Phase::Restart;
-                }
-                self.push_run(tp, Run::new(self.sp.program.next_pixel));
+                    Run::new(self.sp.program.next_pixel)
+                } else {
+                    self.fill_run()
+                };
+                self.push_run(tp, run);
             }
         }
         Ok(())
@@ -650,6 +673,7 @@ impl<'a> StrataSource<'a> {
         rays: &mut u64,
         done: &mut Option<PixelDone>,
     ) -> Result<Option<Run>, TimedError> {
+        let n_tps = self.tps.len() as u32;
         loop {
             let w = &mut self.tps[tp];
             if w.qpos < w.qlen {
@@ -662,7 +686,14 @@ impl<'a> StrataSource<'a> {
             match w.phase {
                 Phase::Halted => return Ok(None),
                 Phase::Fill => {
-                    let v = w.counter.take().expect("the counter has answered");
+                    let v = match self.cfg.fill {
+                        Fill::Counter => w.counter.take().expect("the counter has answered"),
+                        Fill::Static => {
+                            let v = w.fill;
+                            w.fill = v.saturating_add(n_tps);
+                            v
+                        }
+                    };
                     if v < self.n_paths {
                         self.begin(tp, v, v, done)?;
                     } else {
@@ -836,7 +867,7 @@ impl Source for StrataSource<'_> {
     }
 
     fn first_run(&self) -> Run {
-        Run::new(self.sp.program.next_pixel)
+        self.fill_run()
     }
 
     fn pixel_count(&self) -> usize {

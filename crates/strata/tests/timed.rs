@@ -351,3 +351,49 @@ fn the_time_series_is_the_same_from_both_engines_and_adds_up() {
         assert!(plain.out.timeline.is_none());
     }
 }
+
+#[test]
+fn a_static_fill_renders_the_same_image_without_the_counter() {
+    use rtsim_strata::Fill;
+    use rtsim_trax::isa::Class;
+    // All 144 pixels fit in the default stream memory, one path slot each; 2 KB holds fewer
+    // slots than pixels, so slots are reused through the counter after the fill.
+    let w = world(12, 12);
+    let reference = functional(&w, &params(&w));
+    let pixels = 144;
+    for bytes in [StreamConfig::default().bytes, 2 << 10] {
+        let stream = StreamConfig {
+            bytes,
+            ..StreamConfig::default()
+        };
+        let counter = StrataConfig {
+            stream: stream.clone(),
+            ..StrataConfig::default()
+        };
+        let fixed = StrataConfig {
+            fill: Fill::Static,
+            ..counter.clone()
+        };
+        let trax = chip(2, 8);
+        let c = run(&w, &counter, &trax, Engine::Fast);
+        let f = run(&w, &fixed, &trax, Engine::Fast);
+        assert_same(&f, &reference);
+        let r = run(&w, &fixed, &trax, Engine::Reference);
+        assert_eq!(f.out.report.cycles, r.out.report.cycles, "{bytes} B");
+        assert_eq!(f.out.report.issue, r.out.report.issue, "{bytes} B");
+        assert_eq!(f.strata, r.strata, "{bytes} B");
+        assert_eq!(f.strata.paths, c.strata.paths);
+        // The counter hands out every pixel after the fill and one failed ask per retiring
+        // slot (`pixels` grants in all); the counter fill adds one per slot and one failed
+        // ask per TP, the static fill none.
+        let n = u64::from(c.strata.paths);
+        let tps = u64::from(trax.total_tps());
+        let atomics = |o: &StrataOutput| o.out.report.issue.count(Class::Atomic);
+        assert_eq!(atomics(&f), pixels, "{bytes} B");
+        assert_eq!(atomics(&c), pixels + n + tps, "{bytes} B");
+        // Each of the fill's slots runs `fill_slot` once, and each TP once more to find none
+        // left: the integer adds it has in place of the counter's grants.
+        let adds = |o: &StrataOutput| o.out.report.issue.count(Class::IntAdd);
+        assert_eq!(adds(&f), adds(&c) + n + tps, "{bytes} B");
+    }
+}
