@@ -40,7 +40,8 @@ pub enum Command {
     /// Tables 1 and 3, with whether each change goes the paper's way).
     Compare(crate::commands::compare::CompareArgs),
     /// Draw the papers' tables and figures from a sweep's results, beside the published
-    /// values: report.html and every figure as SVG and PNG (docs/EXPERIMENTS.md).
+    /// values: report.html and every figure as SVG and PNG (docs/EXPERIMENTS.md); or the time
+    /// series of `simulate --timeline` runs, side by side.
     Report(crate::commands::report::ReportArgs),
 }
 

@@ -258,3 +258,70 @@ fn timeline_writes_a_row_per_interval_and_bad_settings_name_their_key() {
         "{e}"
     );
 }
+
+#[test]
+fn report_draws_time_series_side_by_side() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("counter"), dir.path().join("static"));
+    simulate(&a, &["--timeline", "2000"]);
+    simulate(
+        &b,
+        &["--timeline", "2000", "--set", "arch.strata.fill=static"],
+    );
+    // The static fill renders the same image with fewer counter grants.
+    assert_eq!(
+        fs::read(a.join("render.png")).unwrap(),
+        fs::read(b.join("render.png")).unwrap()
+    );
+    let grants = |d: &Path| -> u64 {
+        let csv = fs::read_to_string(d.join("timeline.csv")).unwrap();
+        let mut lines = csv.lines();
+        let k = lines
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|c| c == "atomic_grants")
+            .unwrap();
+        lines
+            .map(|l| l.split(',').nth(k).unwrap().parse::<u64>().unwrap())
+            .sum()
+    };
+    assert!(grants(&b) < grants(&a), "{} {}", grants(&b), grants(&a));
+
+    let (r1, r2) = (dir.path().join("r1"), dir.path().join("r2"));
+    let stdout = ok(rtsim().arg("report").arg(&a).arg(&b).arg("--out").arg(&r1));
+    assert!(stdout.contains("10 figures"), "{stdout}");
+    let html = fs::read_to_string(r1.join("report.html")).unwrap();
+    for want in [
+        "timeline-issue-rate",
+        "timeline-root-rays",
+        "counter",
+        "static",
+    ] {
+        assert!(html.contains(want), "report.html lacks {want}");
+    }
+    assert!(r1.join("figures/timeline-live-paths.png").is_file());
+    // The same inputs (here the files themselves) draw byte-identical figures.
+    ok(rtsim()
+        .arg("report")
+        .arg(a.join("timeline.csv"))
+        .arg(b.join("timeline.csv"))
+        .arg("--out")
+        .arg(&r2));
+    assert_eq!(
+        fs::read(r1.join("figures/timeline-dram.svg")).unwrap(),
+        fs::read(r2.join("figures/timeline-dram.svg")).unwrap()
+    );
+    // A broken file is refused, naming it and the line.
+    let bad = dir.path().join("bad");
+    fs::create_dir(&bad).unwrap();
+    let csv = fs::read_to_string(a.join("timeline.csv")).unwrap();
+    let mut lines: Vec<&str> = csv.lines().collect();
+    lines[2] = "1,2,3";
+    fs::write(bad.join("timeline.csv"), lines.join("\n")).unwrap();
+    let e = fails(rtsim().arg("report").arg(&bad));
+    assert!(
+        e.contains("timeline.csv") && e.contains("line 3") && e.contains("3 values"),
+        "{e}"
+    );
+}

@@ -1,5 +1,6 @@
 //! `rtsim report RESULTS... [--out DIR]`: the papers' tables and figures from one or more
-//! sweeps' merged results, with the published values beside ours — `report.html` (inline CSS, figures inline
+//! sweeps' merged results (or the time series of `simulate --timeline` runs), with the
+//! published values beside ours — `report.html` (inline CSS, figures inline
 //! as SVG) and `figures/NAME.svg` and `.png` for every figure, written as one output set. The
 //! drawing is in `rtsim-report` (`docs/EXPERIMENTS.md`, "Reports").
 
@@ -13,7 +14,9 @@ use std::path::{Path, PathBuf};
 pub struct ReportArgs {
     /// A sweep's results directory, or its merged table (results.jsonl or results.csv).
     /// Several are read as one set of rows (for instance a Figure 7 sweep and Table 1's runs,
-    /// whose 128-TM points it shares); then --out is required.
+    /// whose 128-TM points it shares); then --out is required. Or `simulate --timeline`
+    /// outputs (directories holding timeline.csv, or the files): their time series drawn
+    /// against the cycle, one line per run.
     #[arg(required = true, value_name = "RESULTS")]
     pub results: Vec<PathBuf>,
     /// Output directory. Default, with one RESULTS: `report/` in the results directory
@@ -53,7 +56,22 @@ pub fn run(args: ReportArgs) -> Result<()> {
             );
         }
     }
-    let report = rtsim_report::build_many(&args.results)?;
+    let timelines = args
+        .results
+        .iter()
+        .filter(|r| rtsim_report::timeline::is_timeline(r))
+        .count();
+    let report = if timelines == 0 {
+        rtsim_report::build_many(&args.results)?
+    } else if timelines == args.results.len() {
+        rtsim_report::timeline::build(&args.results)?
+    } else {
+        bail!(
+            "RESULTS mixes {timelines} time series (`{}` of `rtsim simulate --timeline`) with {} sweep results; report them separately",
+            rtsim_report::timeline::FILE,
+            args.results.len() - timelines
+        )
+    };
     let page = out.join(PAGE);
     let figures = out.join(FIGURE_DIR);
     let mut plan = OutputPlan::new();

@@ -8,6 +8,9 @@ pub const HEIGHT: u32 = 440;
 /// Plot area: left, top, right and bottom edges (room for tick labels and the legend).
 const PLOT: (f64, f64, f64, f64) = (90.0, 44.0, 560.0, 380.0);
 
+/// Series of more points than this are drawn without a dot per point.
+const DOTS_UP_TO: usize = 60;
+
 /// Legend text: its size, and where it starts right of the plot area.
 const LEGEND_TEXT: f64 = 11.0;
 const LEGEND_TEXT_X: f64 = 46.0;
@@ -239,7 +242,13 @@ impl Chart {
                     if pts.len() > 1 {
                         line(&mut out, pts.clone(), s.color, 2.0, s.dashed);
                     }
-                    for (x, y) in pts {
+                    // A dense series (a time series) is a line alone: dots would hide it.
+                    let dots = if pts.len() <= DOTS_UP_TO {
+                        pts
+                    } else {
+                        Vec::new()
+                    };
+                    for (x, y) in dots {
                         out.push(Prim::Dot {
                             x,
                             y,
@@ -541,7 +550,7 @@ impl Axis {
 }
 
 /// 1, 2 or 5 × 10^k, the smallest at least `raw`.
-fn nice_step(raw: f64) -> f64 {
+pub(crate) fn nice_step(raw: f64) -> f64 {
     let mag = 10f64.powf(raw.log10().floor());
     [1.0, 2.0, 5.0, 10.0]
         .iter()

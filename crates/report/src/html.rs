@@ -149,11 +149,6 @@ tr.ours td{background:#eef5fb}td.missing{color:#b00;font-style:italic}
 
 /// The whole page.
 pub fn page(r: &Results, sections: &[Section], svgs: &[(String, String, Vec<u8>)]) -> String {
-    let mut s = String::from(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>rtsim report</title>\n<style>\n",
-    );
-    s.push_str(CSS);
-    s.push_str("\n</style>\n</head>\n<body>\n<h1>rtsim report</h1>\n");
     let mut counts: Vec<String> = Vec::new();
     for a in crate::Arch::ALL {
         let n = r.of(a).count();
@@ -186,13 +181,35 @@ pub fn page(r: &Results, sections: &[Section], svgs: &[(String, String, Vec<u8>)
             )
         }
     };
-    s.push_str(&format!(
+    let intro = format!(
         "<p>Results: {sources}, {} finished points ({}). Rows marked <i>paper</i> are the published values; \
          rows marked <i>rtsim</i> are ours (hover a value for the column it came from). \
          <span class=\"missing\">Red italics</span>: not in these results.</p>\n",
         r.rows.len(),
-        if counts.is_empty() { "none".to_string() } else { counts.join(", ") }
-    ));
+        if counts.is_empty() {
+            "none".to_string()
+        } else {
+            counts.join(", ")
+        }
+    );
+    document("rtsim report", &intro, sections, svgs)
+}
+
+/// A page titled `title`: `intro` (HTML), then each section's title, intro, figures (inline
+/// SVG with links to the files) and tables.
+pub fn document(
+    title: &str,
+    intro: &str,
+    sections: &[Section],
+    svgs: &[(String, String, Vec<u8>)],
+) -> String {
+    let title = escape(title);
+    let mut s = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{title}</title>\n<style>\n"
+    );
+    s.push_str(CSS);
+    s.push_str(&format!("\n</style>\n</head>\n<body>\n<h1>{title}</h1>\n"));
+    s.push_str(intro);
     for sec in sections {
         s.push_str(&format!("<h2>{}</h2>\n{}\n", escape(&sec.title), sec.intro));
         for item in &sec.items {

@@ -23,6 +23,7 @@ pub mod sgrt;
 pub mod strata;
 pub mod svg;
 pub mod table;
+pub mod timeline;
 
 use std::path::{Path, PathBuf};
 use table::{Row, Table};
