@@ -31,6 +31,7 @@ fn main() {
         },
         policy: match arg(6, "most-rays").as_str() {
             "round-robin" => Policy::RoundRobin,
+            "rays-per-tm" => Policy::RaysPerTm,
             _ => Policy::MostRays,
         },
         tms_per_buffer: arg(7, "0").parse().unwrap(),

@@ -43,6 +43,11 @@ pub enum Policy {
     MostRays,
     /// The next non-empty buffer after the one last taken, in treelet-id order, wrapping.
     RoundRobin,
+    /// Among the buffers `most-rays` may take, the one with the most rays per TM once the
+    /// picking TM joins, `count / (holders + 1)`, ties to the lowest id: a buffer's holders
+    /// discount it in proportion, so TMs leave a crowded root buffer for smaller ones sooner
+    /// (assumed: an alternative for the crowding after a large fill, `docs/VALIDATION.md`).
+    RaysPerTm,
 }
 
 /// When a TM leaves its treelet (issue 10 §2: "buffer empty, or a threshold").
@@ -79,6 +84,7 @@ impl Policy {
         match self {
             Policy::MostRays => "most-rays",
             Policy::RoundRobin => "round-robin",
+            Policy::RaysPerTm => "rays-per-tm",
         }
     }
 }
@@ -141,7 +147,8 @@ pub struct StrataConfig {
     /// Bytes of the L2 beside the stream memory; replaces `arch.trax.l2.size_bytes` when
     /// streaming is on. Default 512 KB (STRaTA §5.1).
     pub l2_bytes: u64,
-    /// How a TM picks a treelet buffer: `most-rays` (default, issue 10 §2) or `round-robin`.
+    /// How a TM picks a treelet buffer: `most-rays` (default, issue 10 §2), `round-robin` or
+    /// `rays-per-tm`.
     pub policy: Policy,
     /// Most TMs that may drain one buffer at once, 0..=4096; 0 = no limit. Default 0
     /// (assumed: the paper says nothing of sharing, but every ray starts in the root treelet

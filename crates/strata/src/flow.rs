@@ -244,21 +244,25 @@ pub(crate) struct Ready {
     limit: u32,
     counts: Vec<u32>,
     holders: Vec<u32>,
-    /// Buffers a TM may take under `most-rays`, by (unclaimed rays, lowest id first).
-    by_unclaimed: BTreeSet<(u32, Reverse<u32>)>,
+    /// Rank buffers by rays per TM (`rays-per-tm`) instead of unclaimed rays (`most-rays`).
+    per_tm: bool,
+    /// Buffers a TM may take under `most-rays` or `rays-per-tm`, by (rank, lowest id first).
+    by_rank: BTreeSet<(u64, Reverse<u32>)>,
     /// Non-empty buffers, by id (`round-robin`).
     by_id: BTreeSet<u32>,
 }
 
 impl Ready {
-    /// `buffers` empty buffers for TMs of `tps` TPs, at most `limit` TMs per buffer (0: any).
-    pub(crate) fn new(buffers: u32, tps: u32, limit: u32) -> Self {
+    /// `buffers` empty buffers for TMs of `tps` TPs, at most `limit` TMs per buffer (0: any),
+    /// ranked for `policy`.
+    pub(crate) fn new(buffers: u32, tps: u32, limit: u32, policy: Policy) -> Self {
         Ready {
             tps,
             limit,
             counts: vec![0; buffers as usize],
             holders: vec![0; buffers as usize],
-            by_unclaimed: BTreeSet::new(),
+            per_tm: policy == Policy::RaysPerTm,
+            by_rank: BTreeSet::new(),
             by_id: BTreeSet::new(),
         }
     }
@@ -267,22 +271,35 @@ impl Ready {
         self.limit == 0 || self.holders[b as usize] < self.limit
     }
 
-    /// Buffer `b`'s place in `by_unclaimed`: its rays minus `tps` for every TM already on it
-    /// (with one TM per buffer, simply the count), if any are left and it may be taken.
-    fn entry(&self, b: u32) -> Option<(u32, Reverse<u32>)> {
-        let claimed = self.holders[b as usize] as u64 * self.tps as u64;
-        let unclaimed = (self.counts[b as usize] as u64).saturating_sub(claimed);
-        (unclaimed > 0 && self.free(b)).then_some((unclaimed as u32, Reverse(b)))
+    /// Buffer `b`'s place in `by_rank`, if it has unclaimed rays (its rays minus `tps` for
+    /// every TM already on it) and may be taken: ranked by those unclaimed rays, or under
+    /// `rays-per-tm` by its rays per TM once the picking TM joins, `count / (holders + 1)`,
+    /// in units of 2^-20 ray (exact for any two buffers whose shares differ by more).
+    fn entry(&self, b: u32) -> Option<(u64, Reverse<u32>)> {
+        let (count, holders) = (
+            self.counts[b as usize] as u64,
+            self.holders[b as usize] as u64,
+        );
+        let unclaimed = count.saturating_sub(holders * self.tps as u64);
+        if unclaimed == 0 || !self.free(b) {
+            return None;
+        }
+        let rank = if self.per_tm {
+            (count << 20) / (holders + 1)
+        } else {
+            unclaimed
+        };
+        Some((rank, Reverse(b)))
     }
 
     /// Change buffer `b`'s count or holders by `f`, keeping the orders.
     fn change(&mut self, b: u32, f: impl FnOnce(&mut Self)) {
         if let Some(e) = self.entry(b) {
-            self.by_unclaimed.remove(&e);
+            self.by_rank.remove(&e);
         }
         f(self);
         if let Some(e) = self.entry(b) {
-            self.by_unclaimed.insert(e);
+            self.by_rank.insert(e);
         }
         if self.counts[b as usize] > 0 {
             self.by_id.insert(b);
@@ -317,12 +334,13 @@ impl Ready {
     }
 
     /// The buffer a TM takes under `policy`, among buffers held by fewer than `limit` TMs.
-    /// `most-rays` ranks buffers by their unclaimed rays, ties to the lowest id, and never
-    /// takes a fully claimed one; `round-robin` takes the first non-empty one after `cursor`
+    /// `most-rays` ranks buffers by their unclaimed rays, `rays-per-tm` by their rays per TM
+    /// with the picking one, both ties to the lowest id, and neither takes a fully claimed
+    /// one (the ranking is fixed at [`Ready::new`]); `round-robin` takes the first non-empty one after `cursor`
     /// in id order, wrapping, and moves it.
     pub(crate) fn pick(&self, policy: Policy, cursor: &mut Option<u32>) -> Option<u32> {
         match policy {
-            Policy::MostRays => self.by_unclaimed.last().map(|&(_, Reverse(b))| b),
+            Policy::MostRays | Policy::RaysPerTm => self.by_rank.last().map(|&(_, Reverse(b))| b),
             Policy::RoundRobin => {
                 let start = cursor.map_or(0, |c| c + 1);
                 let b = self
@@ -422,7 +440,7 @@ pub fn run(cfg: &StrataConfig, chip: &FlowChip, input: Frame<'_>) -> Result<Flow
         leaf_of_slot,
         last_of_leaf,
         stream,
-        ready: Ready::new(buffers, tps, cfg.tms_per_buffer),
+        ready: Ready::new(buffers, tps, cfg.tms_per_buffer, cfg.policy),
         tm_treelet: vec![None; tms],
         tm_kind: vec![None; tms],
         rr_cursor: None,
@@ -801,7 +819,11 @@ mod tests {
 
     /// Buffers with the given counts and holders, for TMs of 8 TPs, at most `limit` TMs each.
     fn ready(counts: &[u32], holders: &[u32], limit: u32) -> Ready {
-        let mut r = Ready::new(counts.len() as u32, 8, limit);
+        ready_for(Policy::MostRays, counts, holders, limit)
+    }
+
+    fn ready_for(policy: Policy, counts: &[u32], holders: &[u32], limit: u32) -> Ready {
+        let mut r = Ready::new(counts.len() as u32, 8, limit, policy);
         for (b, (&c, &h)) in counts.iter().zip(holders).enumerate() {
             r.update(b as u32, c);
             for _ in 0..h {
@@ -831,6 +853,26 @@ mod tests {
     }
 
     #[test]
+    fn rays_per_tm_discounts_a_buffer_by_its_holders() {
+        let counts = [100, 0, 40, 30];
+        let pick = |holders: &[u32]| {
+            ready_for(Policy::RaysPerTm, &counts, holders, 0).pick(Policy::RaysPerTm, &mut None)
+        };
+        assert_eq!(pick(&[0; 4]), Some(0));
+        // Two TMs on buffer 0: 100 / 3 = 33.3 rays each with a third, against 40 alone on
+        // buffer 2 (`most-rays` would still take 0: 84 unclaimed).
+        assert_eq!(pick(&[2, 0, 0, 0]), Some(2));
+        assert_eq!(
+            ready(&counts, &[2, 0, 0, 0], 0).pick(Policy::MostRays, &mut None),
+            Some(0)
+        );
+        // One TM on 2 as well: 100 / 3 = 33.3 against 40 / 2 = 20 and 30: buffer 0 again.
+        assert_eq!(pick(&[2, 0, 1, 0]), Some(0));
+        // Eligibility is `most-rays`': a fully claimed buffer is out however it ranks.
+        assert_eq!(pick(&[13, 0, 5, 4]), None);
+    }
+
+    #[test]
     fn round_robin_cycles_through_non_empty_buffers() {
         let counts = [3, 0, 1, 0, 7];
         let r = ready(&counts, &[0; 5], 0);
@@ -844,7 +886,7 @@ mod tests {
         let r = ready(&counts, &[0, 0, 1, 0, 0], 1);
         assert_eq!(r.pick(Policy::RoundRobin, &mut cur), Some(4));
         assert_eq!(cur, Some(4));
-        let empty = Ready::new(5, 8, 0);
+        let empty = Ready::new(5, 8, 0, Policy::RoundRobin);
         assert_eq!(empty.pick(Policy::RoundRobin, &mut cur), None);
     }
 
@@ -855,7 +897,7 @@ mod tests {
         r.update(1, 3);
         assert_eq!(r.by_id.iter().copied().collect::<Vec<_>>(), [1]);
         assert_eq!(
-            r.by_unclaimed.iter().copied().collect::<Vec<_>>(),
+            r.by_rank.iter().copied().collect::<Vec<_>>(),
             [(3, Reverse(1))]
         );
         // A claim of all its rays takes a buffer out of `most-rays`' reach; a release puts

@@ -366,7 +366,7 @@ impl<'a> StrataSource<'a> {
             treelets,
             last_of_leaf,
             leaf_of_slot,
-            ready: Ready::new(buffers, trax.tps_per_tm, cfg.tms_per_buffer),
+            ready: Ready::new(buffers, trax.tps_per_tm, cfg.tms_per_buffer, cfg.policy),
             rr_cursor: None,
             tms: vec![
                 Tm {

@@ -174,6 +174,7 @@ fn policies_and_sharing_change_the_schedule_not_the_image() {
         (Policy::RoundRobin, 1),
         (Policy::MostRays, 0),
         (Policy::RoundRobin, 2),
+        (Policy::RaysPerTm, 0),
     ] {
         let cfg = StrataConfig {
             policy,

@@ -168,6 +168,7 @@ fn fast_equals_reference_under_stream_contention() {
     for (policy, switch) in [
         (Policy::MostRays, Switch::Empty),
         (Policy::RoundRobin, Switch::Drained),
+        (Policy::RaysPerTm, Switch::Empty),
     ] {
         let cfg = StrataConfig {
             policy,
