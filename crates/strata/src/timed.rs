@@ -5,7 +5,8 @@
 //!
 //! - **Work.** A TP first helps fill the stream memory: it takes a path slot from the atomic
 //!   counter, runs the camera ray's shading blocks, writes the path's state record and pushes
-//!   the ray onto the root buffer, until every slot (at most one per pixel) holds a path.
+//!   the ray onto the root buffer, until every slot (at most one per pixel) holds a path
+//!   (under `arch.strata.fill = static` TP `i` of `T` takes slots `i`, `i + T`, … itself).
 //!   Then it loops: pop a ray from its TM's treelet buffer (`stream_pop`), run the ray's
 //!   `bit-stack` steps while they stay in the treelet (each step's block, unfused or fused),
 //!   and push it onto the buffer of the treelet it enters (`stream_push`). A finished ray is
