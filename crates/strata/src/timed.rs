@@ -171,9 +171,6 @@ struct Tp {
     /// The path whose ray (or shading) the TP runs.
     path: Option<u32>,
     counter: Option<u32>,
-    /// Under `fill = static`, the next path slot this TP fills (its index, then every
-    /// TP-count-th slot after it).
-    fill: u32,
     /// The ray being traversed.
     trav: Option<State>,
     /// The held ray's counters: its path's, moved here at the pop and back at the push (so a
@@ -184,6 +181,10 @@ struct Tp {
     popped: Option<[u8; 48]>,
     /// The ray to push and its buffer, consumed by the push access.
     outgoing: Option<(u32, [u8; 48])>,
+    /// Under `fill = static`, the next path slot this TP fills (its index, then every
+    /// TP-count-th slot after it). Last: read only while filling, it stays out of the lines
+    /// the engine prefetches for every step.
+    fill: u32,
 }
 
 /// A slot of the path table. `repr(C)`: a pop and a push read and write only the front
@@ -263,6 +264,8 @@ pub struct StrataSource<'a> {
     paths: Vec<Path>,
     n_paths: u32,
     fill_next: u32,
+    /// TPs on the chip: a static fill's step between one TP's slots.
+    fill_stride: u32,
     pixel_next: u32,
     live_paths: u32,
     /// Per stream bank: the cycle of its last accesses and how many.
@@ -390,6 +393,7 @@ impl<'a> StrataSource<'a> {
             // A static fill hands every slot out at the start: no TP asks the counter for one,
             // and the paths count as in flight (so none can look finished) until they retire.
             fill_next: if static_fill { n_paths } else { 0 },
+            fill_stride: tps as u32,
             pixel_next: n_paths,
             live_paths: if static_fill { n_paths } else { 0 },
             banks: vec![(u64::MAX, 0); cfg.stream.banks as usize],
@@ -674,7 +678,6 @@ impl<'a> StrataSource<'a> {
         rays: &mut u64,
         done: &mut Option<PixelDone>,
     ) -> Result<Option<Run>, TimedError> {
-        let n_tps = self.tps.len() as u32;
         loop {
             let w = &mut self.tps[tp];
             if w.qpos < w.qlen {
@@ -691,7 +694,7 @@ impl<'a> StrataSource<'a> {
                         Fill::Counter => w.counter.take().expect("the counter has answered"),
                         Fill::Static => {
                             let v = w.fill;
-                            w.fill = v.saturating_add(n_tps);
+                            w.fill = v.saturating_add(self.fill_stride);
                             v
                         }
                     };
