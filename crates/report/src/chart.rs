@@ -243,12 +243,8 @@ impl Chart {
                         line(&mut out, pts.clone(), s.color, 2.0, s.dashed);
                     }
                     // A dense series (a time series) is a line alone: dots would hide it.
-                    let dots = if pts.len() <= DOTS_UP_TO {
-                        pts
-                    } else {
-                        Vec::new()
-                    };
-                    for (x, y) in dots {
+                    let dots = pts.len() <= DOTS_UP_TO;
+                    for (x, y) in pts.into_iter().filter(|_| dots) {
                         out.push(Prim::Dot {
                             x,
                             y,

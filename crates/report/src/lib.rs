@@ -231,15 +231,24 @@ pub fn build_many(results: &[PathBuf]) -> Result<Report, ReportError> {
 pub fn render(r: &Results) -> Result<Report, ReportError> {
     let strata = strata::sections(r);
     let sgrt = sgrt::sections(r);
-    let mut figures = Vec::new();
-    for f in strata.figures.iter().chain(&sgrt.figures) {
-        let prims = f.chart.layout();
-        let png = raster::png(&prims).map_err(|source| ReportError::Png {
-            name: f.name.to_string(),
-            source,
-        })?;
-        figures.push((f.name.to_string(), svg::render(&prims), png));
-    }
+    let figures = draw(strata.figures.iter().chain(&sgrt.figures))?;
     let html = html::page(r, &[strata, sgrt], &figures);
     Ok(Report { html, figures })
+}
+
+/// Each figure laid out once and drawn as SVG and PNG: (file stem, SVG text, PNG bytes).
+pub(crate) fn draw<'a>(
+    figures: impl IntoIterator<Item = &'a Figure>,
+) -> Result<Vec<(String, String, Vec<u8>)>, ReportError> {
+    figures
+        .into_iter()
+        .map(|f| {
+            let prims = f.chart.layout();
+            let png = raster::png(&prims).map_err(|source| ReportError::Png {
+                name: f.name.to_string(),
+                source,
+            })?;
+            Ok((f.name.to_string(), svg::render(&prims), png))
+        })
+        .collect()
 }

@@ -114,14 +114,14 @@ impl Run {
         self.columns.iter().position(|c| c == name)
     }
 
-    /// (interval end, `f(row)`) for every row where `f` gives a value.
+    /// `f` of every row where it gives a value, at the row's interval end (`cycle +
+    /// cycles`, the first two columns).
     fn points(&self, f: Value) -> Vec<(f64, f64)> {
-        let (c, n) = (0, 1);
         self.rows
             .iter()
             .filter_map(|row| {
                 let get = |name: &str| self.col(name).map_or(f64::NAN, |k| row[k]);
-                f(&get).map(|y| (row[c] + row[n], y))
+                f(&get).map(|y| (row[0] + row[1], y))
             })
             .collect()
     }
@@ -299,15 +299,7 @@ pub fn build(inputs: &[PathBuf]) -> Result<Report, ReportError> {
             notes: String::new(),
         });
     }
-    let mut figures = Vec::new();
-    for f in &section.figures {
-        let prims = f.chart.layout();
-        let png = crate::raster::png(&prims).map_err(|source| ReportError::Png {
-            name: f.name.to_string(),
-            source,
-        })?;
-        figures.push((f.name.to_string(), crate::svg::render(&prims), png));
-    }
+    let figures = crate::draw(&section.figures)?;
     let html = crate::html::document("rtsim time series", &intro(&runs), &[section], &figures);
     Ok(Report { html, figures })
 }

@@ -336,8 +336,8 @@ impl Ready {
     /// The buffer a TM takes under `policy`, among buffers held by fewer than `limit` TMs.
     /// `most-rays` ranks buffers by their unclaimed rays, `rays-per-tm` by their rays per TM
     /// with the picking one, both ties to the lowest id, and neither takes a fully claimed
-    /// one (the ranking is fixed at [`Ready::new`]); `round-robin` takes the first non-empty one after `cursor`
-    /// in id order, wrapping, and moves it.
+    /// one (the ranking is fixed at [`Ready::new`]); `round-robin` takes the first non-empty
+    /// one after `cursor` in id order, wrapping, and moves it.
     pub(crate) fn pick(&self, policy: Policy, cursor: &mut Option<u32>) -> Option<u32> {
         match policy {
             Policy::MostRays | Policy::RaysPerTm => self.by_rank.last().map(|&(_, Reverse(b))| b),
