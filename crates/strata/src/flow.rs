@@ -244,6 +244,8 @@ pub(crate) struct Ready {
     limit: u32,
     counts: Vec<u32>,
     holders: Vec<u32>,
+    /// Keep `by_rank` (`most-rays` and `rays-per-tm`; `round-robin` needs only `by_id`).
+    ranked: bool,
     /// Rank buffers by rays per TM (`rays-per-tm`) instead of unclaimed rays (`most-rays`).
     per_tm: bool,
     /// Buffers a TM may take under `most-rays` or `rays-per-tm`, by (rank, lowest id first).
@@ -261,6 +263,7 @@ impl Ready {
             limit,
             counts: vec![0; buffers as usize],
             holders: vec![0; buffers as usize],
+            ranked: policy != Policy::RoundRobin,
             per_tm: policy == Policy::RaysPerTm,
             by_rank: BTreeSet::new(),
             by_id: BTreeSet::new(),
@@ -292,19 +295,33 @@ impl Ready {
         Some((rank, Reverse(b)))
     }
 
-    /// Change buffer `b`'s count or holders by `f`, keeping the orders.
+    /// Change buffer `b`'s count or holders by `f`, keeping the orders. Called on every
+    /// push and pop, so the sets are touched only where an entry changes: a buffer's rank
+    /// entry (most pops of a held buffer leave it fully claimed, out of `by_rank` before and
+    /// after), and its place in `by_id` only when it fills or empties.
     fn change(&mut self, b: u32, f: impl FnOnce(&mut Self)) {
-        if let Some(e) = self.entry(b) {
-            self.by_rank.remove(&e);
-        }
+        let was = self.counts[b as usize] > 0;
+        let before = if self.ranked { self.entry(b) } else { None };
         f(self);
-        if let Some(e) = self.entry(b) {
-            self.by_rank.insert(e);
+        if self.ranked {
+            let after = self.entry(b);
+            if after != before {
+                if let Some(e) = before {
+                    self.by_rank.remove(&e);
+                }
+                if let Some(e) = after {
+                    self.by_rank.insert(e);
+                }
+            }
         }
-        if self.counts[b as usize] > 0 {
-            self.by_id.insert(b);
-        } else {
-            self.by_id.remove(&b);
+        match (was, self.counts[b as usize] > 0) {
+            (false, true) => {
+                self.by_id.insert(b);
+            }
+            (true, false) => {
+                self.by_id.remove(&b);
+            }
+            _ => {}
         }
     }
 
@@ -340,7 +357,10 @@ impl Ready {
     /// one after `cursor` in id order, wrapping, and moves it.
     pub(crate) fn pick(&self, policy: Policy, cursor: &mut Option<u32>) -> Option<u32> {
         match policy {
-            Policy::MostRays | Policy::RaysPerTm => self.by_rank.last().map(|&(_, Reverse(b))| b),
+            Policy::MostRays | Policy::RaysPerTm => {
+                debug_assert!(self.ranked, "a round-robin `Ready` keeps no ranks");
+                self.by_rank.last().map(|&(_, Reverse(b))| b)
+            }
             Policy::RoundRobin => {
                 let start = cursor.map_or(0, |c| c + 1);
                 let b = self
@@ -888,6 +908,40 @@ mod tests {
         assert_eq!(cur, Some(4));
         let empty = Ready::new(5, 8, 0, Policy::RoundRobin);
         assert_eq!(empty.pick(Policy::RoundRobin, &mut cur), None);
+    }
+
+    #[test]
+    fn the_orders_equal_a_rebuild_after_any_changes() {
+        // `change` skips the sets where an entry stays the same: after any run of pushes,
+        // pops, claims and releases they must hold what a scan of every buffer gives.
+        for policy in [Policy::MostRays, Policy::RaysPerTm, Policy::RoundRobin] {
+            for limit in [0, 2] {
+                let mut r = Ready::new(6, 4, limit, policy);
+                let mut x = 0x2545_f491_u32;
+                for step in 0..5_000 {
+                    x ^= x << 13;
+                    x ^= x >> 17;
+                    x ^= x << 5;
+                    let b = x % 6;
+                    let (count, holders) = (r.counts[b as usize], r.holders(b));
+                    match (x >> 8) % 4 {
+                        0 => r.update(b, count + 1 + (x >> 16) % 9),
+                        1 => r.update(b, count.saturating_sub(1 + (x >> 16) % 9)),
+                        2 if limit == 0 || holders < limit => r.claim(b),
+                        3 if holders > 0 => r.release(b),
+                        _ => {}
+                    }
+                    let by_id: Vec<u32> = (0..6).filter(|&b| r.counts[b as usize] > 0).collect();
+                    assert_eq!(r.by_id.iter().copied().collect::<Vec<_>>(), by_id, "{step}");
+                    let by_rank: BTreeSet<_> = if policy == Policy::RoundRobin {
+                        BTreeSet::new()
+                    } else {
+                        (0..6).filter_map(|b| r.entry(b)).collect()
+                    };
+                    assert_eq!(r.by_rank, by_rank, "{policy:?}, limit {limit}, step {step}");
+                }
+            }
+        }
     }
 
     #[test]
