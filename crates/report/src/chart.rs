@@ -325,8 +325,11 @@ impl Chart {
         }
         // Axes on top of the data.
         line(&mut out, vec![(l, t), (l, b), (r, b)], BLACK, 1.0, false);
-        for (i, (name, color, dashed)) in legend.iter().enumerate() {
-            let y = t + 10.0 + 18.0 * i as f64;
+        // A name wider than the room right of the narrowest plot wraps at spaces, its further
+        // lines below its first.
+        let room = WIDTH as f64 - (r + LEGEND_TEXT_X) - 6.0;
+        let mut y = t + 10.0;
+        for (name, color, dashed) in &legend {
             line(
                 &mut out,
                 vec![(r + 14.0, y), (r + 40.0, y)],
@@ -334,14 +337,18 @@ impl Chart {
                 2.5,
                 *dashed,
             );
-            text(
-                &mut out,
-                r + LEGEND_TEXT_X,
-                y + 4.0,
-                LEGEND_TEXT,
-                Anchor::Start,
-                name,
-            );
+            for part in wrap(name, LEGEND_TEXT, room) {
+                text(
+                    &mut out,
+                    r + LEGEND_TEXT_X,
+                    y + 4.0,
+                    LEGEND_TEXT,
+                    Anchor::Start,
+                    &part,
+                );
+                y += 14.0;
+            }
+            y += 4.0;
         }
         out
     }
@@ -406,6 +413,22 @@ fn y_span(pts: &[(f64, f64)], x0: f64, x1: f64) -> Option<(f64, f64)> {
         }
     }
     span
+}
+
+/// `s` in lines no wider than `room` at text size `size`, broken at spaces (a word wider than
+/// `room` keeps a line of its own).
+fn wrap(s: &str, size: f64, room: f64) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in s.split(' ') {
+        match lines.last_mut() {
+            Some(last) if crate::raster::text_width(size, &format!("{last} {word}")) <= room => {
+                last.push(' ');
+                last.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
 }
 
 fn text(out: &mut Vec<Prim>, x: f64, y: f64, size: f64, anchor: Anchor, s: &str) {
@@ -702,6 +725,35 @@ mod tests {
         // The plot narrowed, and its right edge is where the grid lines end.
         let right = PLOT.2.min(x - LEGEND_TEXT_X);
         assert!(right < PLOT.2, "{right}");
+        // A name too long even beside the narrowest plot wraps onto lines that fit, and the
+        // next entry starts below its last line.
+        let long = "conference STRaTA (128 TMs; fill static, policy rays-per-tm, switch drained) L1 misses";
+        if let Body::Lines { series, .. } = &mut c.body {
+            series[0].name = long.into();
+            series.push(series[0].clone());
+            series[1].name = "next".into();
+        }
+        let texts: Vec<(f64, f64, String)> = c
+            .layout()
+            .into_iter()
+            .filter_map(|p| match p {
+                Prim::Text {
+                    x, y, size, text, ..
+                } if size == LEGEND_TEXT => Some((x, y, text)),
+                _ => None,
+            })
+            .collect();
+        // The legend's lines: those at the last entry's x.
+        let lx = texts.iter().find(|t| t.2 == "next").expect("next entry").0;
+        let texts: Vec<_> = texts.into_iter().filter(|t| t.0 == lx).collect();
+        let parts: Vec<&str> = texts.iter().map(|t| t.2.as_str()).collect();
+        assert!(parts.len() >= 3, "{parts:?}");
+        assert_eq!(parts[..parts.len() - 1].join(" "), long);
+        for (x, _, text) in &texts {
+            let end = x + crate::raster::text_width(LEGEND_TEXT, text);
+            assert!(end <= WIDTH as f64, "{text:?} ends at {end}");
+        }
+        assert!(texts.windows(2).all(|w| w[1].1 > w[0].1), "lines go down");
     }
 
     #[test]

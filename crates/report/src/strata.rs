@@ -12,7 +12,7 @@
 use crate::chart::{self, BarSeries, Body, Chart, Scale, Series, bytes_label, palette};
 use crate::html::{Section, Val, fixed, significant, table, td, td_missing_row, td_val, th};
 use crate::paper::{self, DramCols};
-use crate::table::Row;
+use crate::table::{Cell, Row};
 use crate::{Arch, Figure, Results, SCENE_COLUMN};
 use std::collections::BTreeMap;
 
@@ -182,15 +182,47 @@ pub fn table_rows(r: &Results, arch: Arch) -> BTreeMap<String, &Row> {
     best
 }
 
+/// One curve: the architecture, the legend's scene name (with the frame's size when the
+/// results hold several), the fixed value, what sets it apart from the group's other curves
+/// (`variant`, empty if nothing), and its rows in `x` order.
+struct Curve<'a> {
+    arch: Arch,
+    scene: String,
+    fixed: f64,
+    variant: String,
+    rows: Vec<&'a Row>,
+}
+
+/// Configuration keys that never change a run's results: where it ran, what it wrote and how
+/// the host ran it (engine and threads give identical results, tests check it).
+fn result_neutral(key: &str) -> bool {
+    key.starts_with("output.")
+        || key.starts_with("sim.")
+        || matches!(key, "scene.dir" | "bvh.parallel_threshold")
+}
+
+/// A setting's value in a legend (`–`: the row does not record the setting).
+fn setting_label(row: &Row, key: &str) -> String {
+    match row.values.get(key) {
+        Some(Cell::Text(t)) => t.clone(),
+        Some(Cell::Num(x)) => chart::short_number(*x),
+        Some(Cell::Bool(b)) => b.to_string(),
+        None => "–".into(),
+    }
+}
+
 /// Curves: rows grouped by (arch, scene, frame, `fixed`), x = `vary`, kept where ≥ 2 x
-/// values. The name is the scene's, with the frame's size when the results hold several
-/// (several sweeps read together, say Figure 7 at 256² and at 1024²); of two rows at one x,
-/// the first results' first point is drawn.
+/// values. Rows of a group that share an x but differ in a setting (a sweep over a knob as
+/// well as the axis, or two sweeps read together that set it differently) are split into
+/// one curve per combination of the settings that differ there, named in the legend; a
+/// setting that changes only with x (a function of it) does not split. Of two rows at one x
+/// with the same settings (a point shared by two sweeps), the first results' first point is
+/// drawn.
 fn curves(
     r: &Results,
     x_of: impl Fn(Arch, &Row) -> f64,
     fixed_of: impl Fn(Arch, &Row) -> f64,
-) -> Vec<(Arch, String, f64, Vec<&Row>)> {
+) -> Vec<Curve<'_>> {
     let trax = || r.rows.iter().filter(|(a, _)| a.is_trax());
     let frames: std::collections::BTreeSet<_> = trax().map(|(_, row)| frame(row)).collect();
     // (arch, scene, frame, the fixed value's bits) → rows
@@ -207,14 +239,54 @@ fn curves(
             .or_default()
             .push(row);
     }
-    groups
-        .into_iter()
-        .filter_map(|((a, s, fr, f), mut rows)| {
-            let s = if frames.len() > 1 {
-                format!("{s} {}", frame_label(fr))
+    let mut out = Vec::new();
+    for ((a, s, fr, f), rows) in groups {
+        let scene = if frames.len() > 1 {
+            format!("{s} {}", frame_label(fr))
+        } else {
+            s
+        };
+        let x_bits = |row: &Row| x_of(a, row).to_bits();
+        // The settings that differ between two rows at one x.
+        let mut by_x: BTreeMap<u64, Vec<&Row>> = BTreeMap::new();
+        for &row in &rows {
+            by_x.entry(x_bits(row)).or_default().push(row);
+        }
+        let keys: std::collections::BTreeSet<&str> = rows
+            .iter()
+            .flat_map(|row| row.params.iter().map(String::as_str))
+            .filter(|k| !result_neutral(k))
+            .filter(|k| {
+                by_x.values().any(|same_x| {
+                    same_x
+                        .iter()
+                        .any(|row| row.values.get(*k) != same_x[0].values.get(*k))
+                })
+            })
+            .collect();
+        // Legend names: a key's last part, or the whole key where two share it.
+        let short = |k: &str| {
+            let last = k.rsplit('.').next().unwrap_or(k);
+            let shared = keys
+                .iter()
+                .filter(|o| o.rsplit('.').next() == Some(last))
+                .count();
+            if shared > 1 {
+                k.to_string()
             } else {
-                s
-            };
+                last.to_string()
+            }
+        };
+        // In the order of their first rows (the first results' first point first).
+        let mut variants: Vec<(Vec<String>, Vec<&Row>)> = Vec::new();
+        for &row in &rows {
+            let v: Vec<String> = keys.iter().map(|k| setting_label(row, k)).collect();
+            match variants.iter_mut().find(|(w, _)| *w == v) {
+                Some((_, rows)) => rows.push(row),
+                None => variants.push((v, vec![row])),
+            }
+        }
+        for (values, mut rows) in variants {
             rows.sort_by(|p, q| {
                 x_of(a, p)
                     .total_cmp(&x_of(a, q))
@@ -222,9 +294,36 @@ fn curves(
                     .then(p.point.cmp(&q.point))
             });
             rows.dedup_by(|p, q| x_of(a, p) == x_of(a, q));
-            (rows.len() >= 2).then(|| (a, s, f64::from_bits(f), rows))
-        })
-        .collect()
+            if rows.len() < 2 {
+                continue;
+            }
+            let variant = keys
+                .iter()
+                .zip(&values)
+                .map(|(k, v)| format!("{} {v}", short(k)))
+                .collect::<Vec<_>>()
+                .join(", ");
+            out.push(Curve {
+                arch: a,
+                scene: scene.clone(),
+                fixed: f64::from_bits(f),
+                variant,
+                rows,
+            });
+        }
+    }
+    out
+}
+
+/// `base`, with the curve's variant appended after `; ` inside its parentheses.
+fn with_variant(base: String, c: &Curve<'_>) -> String {
+    if c.variant.is_empty() {
+        return base;
+    }
+    match base.strip_suffix(')') {
+        Some(open) => format!("{open}; {})", c.variant),
+        None => format!("{base} ({})", c.variant),
+    }
 }
 
 fn size_ticks() -> Vec<(f64, String)> {
@@ -311,7 +410,10 @@ type SizeCurve<'a> = (Arch, String, Vec<&'a Row>);
 fn size_curves(r: &Results) -> (Vec<SizeCurve<'_>>, String) {
     let cs: Vec<_> = curves(r, size, |_, row| num(row, TMS))
         .into_iter()
-        .map(|(a, s, tms, rows)| (a, format!("{s} {} ({tms} TMs)", label(a)), rows))
+        .map(|c| {
+            let name = format!("{} {} ({} TMs)", c.scene, label(c.arch), c.fixed);
+            (c.arch, with_variant(name, &c), c.rows)
+        })
         .collect();
     let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
     let notes = missing_curves(&drawn, "sizes");
@@ -491,17 +593,21 @@ pub fn figure7(r: &Results) -> Figure {
     let series: Vec<Series> = cs
         .iter()
         .enumerate()
-        .map(|(i, (arch, s, sz, rows))| Series {
-            name: format!("{s} {} ({})", label(*arch), bytes_label(*sz)),
-            points: rows
+        .map(|(i, c)| Series {
+            name: with_variant(
+                format!("{} {} ({})", c.scene, label(c.arch), bytes_label(c.fixed)),
+                c,
+            ),
+            points: c
+                .rows
                 .iter()
                 .map(|row| (num(row, TMS), num(row, FPS)))
                 .collect(),
             color: palette(i),
-            dashed: *arch == Arch::Strata,
+            dashed: c.arch == Arch::Strata,
         })
         .collect();
-    let drawn: Vec<Arch> = cs.iter().map(|c| c.0).collect();
+    let drawn: Vec<Arch> = cs.iter().map(|c| c.arch).collect();
     let notes = missing_curves(&drawn, "TM counts");
     Figure {
         name: "strata-fig7",
@@ -870,6 +976,107 @@ mod tests {
         assert_eq!(series.len(), 1);
         // Each component is 1/7 of the total in the synthetic rows.
         assert!((series[0].values[0].unwrap() - 100.0 / 7.0).abs() < 1e-9);
+    }
+
+    /// A STRaTA Conference row at 128 TMs, stream size `mb` MB, value `x`, with settings.
+    fn knob_row(point: usize, mb: f64, x: f64, settings: &[(&str, &str)]) -> (Arch, Row) {
+        let mut row = trax_row(point, Arch::Strata, "conference", 128.0, mb * 1048576.0, x);
+        for (k, v) in settings {
+            row.1
+                .values
+                .insert(k.to_string(), Cell::Text(v.to_string()));
+            row.1.params.insert(k.to_string());
+        }
+        row.1.params.insert("scene.dir".into());
+        let dir = format!("/host{point}/scenes");
+        row.1.values.insert("scene.dir".into(), Cell::Text(dir));
+        row
+    }
+
+    fn names_and_points(f: &Figure) -> Vec<(String, Vec<(f64, f64)>)> {
+        let Body::Lines { series, .. } = &f.chart.body else {
+            panic!()
+        };
+        series
+            .iter()
+            .map(|s| (s.name.clone(), s.points.clone()))
+            .collect()
+    }
+
+    #[test]
+    fn rows_that_share_a_size_but_not_a_setting_are_separate_curves() {
+        let default = [("arch.strata.policy", "most-rays")];
+        let remedy = [
+            ("arch.strata.policy", "rays-per-tm"),
+            ("arch.strata.fill", "static"),
+        ];
+        // A setting that changes only with the size (here `banks`) splits nothing; one that
+        // differs at a size does, and a setting where the runs were (`scene.dir`) never does.
+        let r = results(vec![
+            knob_row(
+                0,
+                4.0,
+                1.0,
+                &[default[0], ("arch.strata.stream.banks", "16")],
+            ),
+            knob_row(
+                1,
+                16.0,
+                2.0,
+                &[default[0], ("arch.strata.stream.banks", "32")],
+            ),
+            knob_row(
+                2,
+                4.0,
+                3.0,
+                &[remedy[0], remedy[1], ("arch.strata.stream.banks", "16")],
+            ),
+            knob_row(
+                3,
+                16.0,
+                4.0,
+                &[remedy[0], remedy[1], ("arch.strata.stream.banks", "32")],
+            ),
+        ]);
+        let l1 = |v: &[(String, Vec<(f64, f64)>)]| -> Vec<(String, Vec<f64>)> {
+            v.iter()
+                .filter(|(n, _)| n.ends_with("L1 misses"))
+                .map(|(n, p)| (n.clone(), p.iter().map(|q| q.1).collect()))
+                .collect()
+        };
+        assert_eq!(
+            l1(&names_and_points(&figure5(&r))),
+            [
+                (
+                    "conference STRaTA (128 TMs; fill –, policy most-rays) L1 misses".to_string(),
+                    vec![1.0, 2.0]
+                ),
+                (
+                    "conference STRaTA (128 TMs; fill static, policy rays-per-tm) L1 misses"
+                        .to_string(),
+                    vec![3.0, 4.0]
+                ),
+            ]
+        );
+        // The same rows without their settings (a bare CSV table): one curve, the first
+        // point at each size drawn, as before.
+        let bare = results(
+            r.rows
+                .iter()
+                .map(|(a, row)| {
+                    let mut row = row.clone();
+                    row.params.clear();
+                    (*a, row)
+                })
+                .collect(),
+        );
+        assert_eq!(
+            l1(&names_and_points(&figure5(&bare))),
+            [(
+                "conference STRaTA (128 TMs) L1 misses".to_string(),
+                vec![1.0, 2.0]
+            )]
+        );
     }
 
     /// Baseline Sibenik rows at (point, TMs, value) in a `w`² frame.

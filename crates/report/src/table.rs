@@ -11,7 +11,7 @@ use crate::ReportError;
 use rtsim_sweep::results::{CSV_FILE as CSV, JSONL_FILE as JSONL};
 use rtsim_sweep::store::Store;
 use serde_json::Value;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 /// Each point's resolved configuration, inside `points/pNNNNN/`.
 pub const RESOLVED: &str = "config.resolved.toml";
@@ -64,6 +64,10 @@ pub struct Row {
     /// Which results it came from (1-based) when a report reads several; None for one.
     pub source: Option<usize>,
     pub values: BTreeMap<String, Cell>,
+    /// Which of `values` are settings of the run (a JSON table's `params`, and every key of
+    /// the point's resolved configuration) rather than its measurements. A CSV table's
+    /// columns are not told apart, so without point directories this holds none of them.
+    pub params: BTreeSet<String>,
 }
 
 impl Row {
@@ -181,8 +185,7 @@ pub fn parse_jsonl(path: &Path, text: &str) -> Result<Table, ReportError> {
             .ok_or_else(|| at("no `point` number".into()))?;
         let mut row = Row {
             point: point as usize,
-            source: None,
-            values: BTreeMap::new(),
+            ..Row::default()
         };
         for part in ["params", "metrics"] {
             let Some(obj) = v.get(part).and_then(Value::as_object) else {
@@ -191,6 +194,9 @@ pub fn parse_jsonl(path: &Path, text: &str) -> Result<Table, ReportError> {
             for (k, v) in obj {
                 if let Some(c) = Cell::from_json(v) {
                     row.values.insert(k.clone(), c);
+                    if part == "params" {
+                        row.params.insert(k.clone());
+                    }
                 }
             }
         }
@@ -236,8 +242,7 @@ pub fn parse_csv(path: &Path, text: &str) -> Result<Table, ReportError> {
         })?;
         let mut row = Row {
             point,
-            source: None,
-            values: BTreeMap::new(),
+            ..Row::default()
         };
         for (h, cell) in header.iter().zip(rec) {
             if h != "point" && !cell.is_empty() {
@@ -299,6 +304,7 @@ fn complete_from_config(row: &mut Row, path: &Path) -> Result<(), ReportError> {
     rtsim_sweep::experiment::flatten("", &v, &mut leaves);
     for (key, value) in leaves {
         if let Some(c) = Cell::from_toml(&value) {
+            row.params.insert(key.clone());
             row.values.entry(key).or_insert(c);
         }
     }
