@@ -194,11 +194,12 @@ struct Curve<'a> {
 }
 
 /// Configuration keys that never change a run's results: where it ran, what it wrote and how
-/// the host ran it (engine and threads give identical results, tests check it).
+/// the host ran it (the engine and the number of host threads give identical results, tests
+/// check it).
 fn result_neutral(key: &str) -> bool {
     key.starts_with("output.")
         || key.starts_with("sim.")
-        || matches!(key, "scene.dir" | "bvh.parallel_threshold")
+        || matches!(key, "threads" | "scene.dir" | "bvh.parallel_threshold")
 }
 
 /// A setting's value in a legend (`–`: the row does not record the setting).
@@ -990,6 +991,9 @@ mod tests {
         row.1.params.insert("scene.dir".into());
         let dir = format!("/host{point}/scenes");
         row.1.values.insert("scene.dir".into(), Cell::Text(dir));
+        row.1.params.insert("threads".into());
+        let threads = point as f64;
+        row.1.values.insert("threads".into(), Cell::Num(threads));
         row
     }
 
@@ -1011,7 +1015,8 @@ mod tests {
             ("arch.strata.fill", "static"),
         ];
         // A setting that changes only with the size (here `banks`) splits nothing; one that
-        // differs at a size does, and a setting where the runs were (`scene.dir`) never does.
+        // differs at a size does, and where or how the runs ran (`scene.dir`, `threads`)
+        // never does.
         let r = results(vec![
             knob_row(
                 0,
