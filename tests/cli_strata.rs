@@ -184,6 +184,26 @@ fn bench_sim_runs_strata_and_bad_settings_name_their_key() {
         .and_then(|r| r.trim().parse().ok())
         .unwrap_or_else(|| panic!("no ratio in {line}"));
     assert!(ratio.is_finite() && ratio > 0.0, "{line}");
+    // And per synchronising access, with each chip's accesses per instruction: STRaTA's fused
+    // tests read their inputs one load each, so its share is the larger.
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("per access"))
+        .unwrap_or_else(|| panic!("no per-access line: {stdout}"));
+    let shares: Vec<f64> = line
+        .split(" per instruction")
+        .next()
+        .and_then(|l| l.rsplit("accesses — ").next())
+        .map(|l| {
+            l.split(" and ")
+                .filter_map(|x| x.trim().parse().ok())
+                .collect()
+        })
+        .unwrap_or_default();
+    assert!(
+        shares.len() == 2 && shares.iter().all(|s| *s > 0.0 && *s < 1.0) && shares[0] > shares[1],
+        "{line}"
+    );
     let e = fails(rtsim().args(["bench-sim", "--against-baseline", "--cycle-limit", "10"]));
     assert!(e.contains("--arch strata"), "{e}");
     let dir = tempfile::tempdir().unwrap();

@@ -17,6 +17,7 @@ use crate::commands::thousands;
 use crate::session;
 use anyhow::Result;
 use clap::Args;
+use rtsim_trax::isa::Class;
 
 /// Default cycle limit (assumed: long enough that the L1s and L2 are warm and the DRAM
 /// queues are in their steady state on Sibenik, short enough for a minute's run here).
@@ -200,8 +201,35 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
             base_cyc_ns / 1e3,
             cyc_ns / base_cyc_ns
         );
+        // The engine's cost is mostly per synchronising access (each one an event in global
+        // time order, `docs/STRATA.md`, "Per access event"), and STRaTA's fused tests read
+        // their inputs through one load each: the per-instruction ratio is mostly the ratio
+        // of the two chips' access densities.
+        let (acc, acc_share) = sync_accesses(&ran);
+        let (base_acc, base_share) = sync_accesses(&base);
+        let (acc_ns, _) = per(&ran, acc);
+        let (base_acc_ns, _) = per(&base, base_acc);
+        println!(
+            "per access       STRaTA {acc_ns:.1} ns, baseline {base_acc_ns:.1} ns ({how}; \
+             synchronising accesses — loads, stores, atomics, stream and pipeline accesses — \
+             {acc_share:.3} and {base_share:.3} per instruction): STRaTA {:.2}× the baseline's",
+            acc_ns / base_acc_ns
+        );
     }
     Ok(())
+}
+
+/// A run's accepted synchronising accesses (instructions whose class [`Class::is_sync`]:
+/// data-cache, atomic, stream and triangle-pipeline accesses) and their share of its
+/// instructions. Refused offers that were retried are not counted.
+fn sync_accesses(r: &simulate::trax::Ran) -> (u64, f64) {
+    let i = &r.out.report.instructions;
+    let n = Class::ALL
+        .iter()
+        .filter(|c| c.is_sync())
+        .map(|c| i.by_class.get(c.mnemonic()).copied().unwrap_or(0))
+        .sum();
+    (n, n as f64 / i.total.max(1) as f64)
 }
 
 /// Host nanoseconds per simulated core cycle of a run.
