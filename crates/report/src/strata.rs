@@ -194,12 +194,15 @@ struct Curve<'a> {
 }
 
 /// Configuration keys that never change a run's results: where it ran, what it wrote and how
-/// the host ran it (the engine and the number of host threads give identical results, tests
-/// check it).
+/// the host ran it (the engine, the time series and the number of host threads give
+/// identical results, tests check it). Not `sim.window` nor `sim.cycle_limit`: they decide
+/// what is simulated.
 fn result_neutral(key: &str) -> bool {
     key.starts_with("output.")
-        || key.starts_with("sim.")
-        || matches!(key, "threads" | "scene.dir" | "bvh.parallel_threshold")
+        || matches!(
+            key,
+            "threads" | "scene.dir" | "bvh.parallel_threshold" | "sim.mode" | "sim.timeline_cycles"
+        )
 }
 
 /// A setting's value in a legend (`–`: the row does not record the setting).
@@ -994,6 +997,11 @@ mod tests {
         row.1.params.insert("threads".into());
         let threads = point as f64;
         row.1.values.insert("threads".into(), Cell::Num(threads));
+        row.1.params.insert("sim.mode".into());
+        let mode = if point % 2 == 0 { "fast" } else { "reference" };
+        row.1
+            .values
+            .insert("sim.mode".into(), Cell::Text(mode.into()));
         row
     }
 
@@ -1015,8 +1023,8 @@ mod tests {
             ("arch.strata.fill", "static"),
         ];
         // A setting that changes only with the size (here `banks`) splits nothing; one that
-        // differs at a size does, and where or how the runs ran (`scene.dir`, `threads`)
-        // never does.
+        // differs at a size does, and where or how the runs ran (`scene.dir`, `threads`,
+        // `sim.mode`) never does.
         let r = results(vec![
             knob_row(
                 0,
@@ -1082,6 +1090,34 @@ mod tests {
                 vec![1.0, 2.0]
             )]
         );
+    }
+
+    #[test]
+    fn a_cycle_limit_or_a_window_sets_a_curve_apart() {
+        // They decide what is simulated: a run stopped early is not the same point.
+        for key in ["sim.cycle_limit", "sim.window"] {
+            let limited = [(key, "1000")];
+            let r = results(vec![
+                knob_row(0, 4.0, 1.0, &[]),
+                knob_row(1, 16.0, 2.0, &[]),
+                knob_row(2, 4.0, 3.0, &limited),
+                knob_row(3, 16.0, 4.0, &limited),
+            ]);
+            let names: Vec<String> = names_and_points(&figure5(&r))
+                .into_iter()
+                .filter(|(n, _)| n.ends_with("L1 misses"))
+                .map(|(n, _)| n)
+                .collect();
+            let short = key.rsplit('.').next().unwrap();
+            assert_eq!(
+                names,
+                [
+                    format!("conference STRaTA (128 TMs; {short} –) L1 misses"),
+                    format!("conference STRaTA (128 TMs; {short} 1000) L1 misses"),
+                ],
+                "{key}"
+            );
+        }
     }
 
     /// Baseline Sibenik rows at (point, TMs, value) in a `w`² frame.
