@@ -150,6 +150,119 @@ fn another_experiments_results_are_never_reused() {
     );
 }
 
+/// A `simulate` experiment named `name` of tiny TRaX baseline frames: `base` and `grid`
+/// lines added to the shared settings.
+fn sim_experiment(dir: &Path, name: &str, base: &str, grid: &str) -> PathBuf {
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(
+        &p,
+        format!(
+            r#"
+name = "{name}"
+command = "simulate"
+[base]
+"scene.name" = "cornell"
+"arch.preset" = "trax-baseline"
+"arch.trax.tps_per_tm" = 4
+workload = {{ width = 6, height = 6 }}
+{base}
+[grid]
+{grid}
+"#
+        ),
+    )
+    .unwrap();
+    p
+}
+
+#[test]
+fn a_point_another_sweep_ran_with_the_same_configuration_is_reused() {
+    let tmp = tempfile::tempdir().unwrap();
+    // a: 2 TMs, L2 512 KB or 1 MB. b: L2 512 KB, 1 or 2 TMs. b's second point is a's first,
+    // reached through other layers (a grid key there, [base] here).
+    let a = sim_experiment(
+        tmp.path(),
+        "a",
+        "\"arch.trax.tms\" = 2",
+        "\"arch.trax.l2.size_bytes\" = [524288, 1048576]",
+    );
+    let b = sim_experiment(
+        tmp.path(),
+        "b",
+        "\"arch.trax.l2.size_bytes\" = 524288",
+        "\"arch.trax.tms\" = [1, 2]",
+    );
+    let (ra, rb, fresh) = (
+        tmp.path().join("ra"),
+        tmp.path().join("rb"),
+        tmp.path().join("fresh"),
+    );
+    ok(&mut sweep(&a, &ra));
+    let out = sweep(&b, &rb).arg("--reuse").arg(&ra).output().unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("point p00001 reused from") && stderr.contains("(a point 0, run by"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("point p00000 reused"), "{stderr}");
+    // The copy: the donor's outputs, this experiment's record, naming the donor.
+    let (got, donor) = (rb.join("points/p00001"), ra.join("points/p00000"));
+    for f in ["stats.json", "config.resolved.toml", "render.png"] {
+        assert_eq!(
+            std::fs::read(got.join(f)).unwrap(),
+            std::fs::read(donor.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    let rec: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(got.join("point.json")).unwrap()).unwrap();
+    assert_eq!(rec["experiment"], "b");
+    assert_eq!(rec["params"]["arch.trax.tms"], 2);
+    assert_eq!(rec["reused_from"]["experiment"], "a");
+    assert_eq!(rec["reused_from"]["index"], 0);
+    let ran: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(rb.join("points/p00000/point.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(ran.get("reused_from").is_none(), "{ran}");
+    // The table equals a sweep that ran every point, and a rerun reuses nothing more.
+    ok(&mut sweep(&b, &fresh));
+    assert_eq!(table(&rb), table(&fresh));
+    let again = sweep(&b, &rb).arg("--reuse").arg(&ra).output().unwrap();
+    assert!(String::from_utf8_lossy(&again.stderr).contains("0 to run"));
+    // A cycle limit decides what is simulated: no donor then.
+    let c = sim_experiment(
+        tmp.path(),
+        "c",
+        "\"arch.trax.l2.size_bytes\" = 524288\n\"sim.cycle_limit\" = 300",
+        "\"arch.trax.tms\" = [1, 2]",
+    );
+    let limited = sweep(&c, &tmp.path().join("rl"))
+        .arg("--reuse")
+        .arg(&ra)
+        .output()
+        .unwrap();
+    assert!(limited.status.success());
+    let stderr = String::from_utf8_lossy(&limited.stderr);
+    assert!(!stderr.contains("reused"), "{stderr}");
+    // A directory that is not a sweep's results is an error naming it; other commands than
+    // `simulate` do not reuse.
+    let e = fails(
+        sweep(&b, &tmp.path().join("rx"))
+            .arg("--reuse")
+            .arg(tmp.path()),
+    );
+    assert!(e.contains("not a sweep's results directory"), "{e}");
+    let render = experiment(tmp.path(), 8, "");
+    let e = fails(
+        sweep(&render, &tmp.path().join("ry"))
+            .arg("--reuse")
+            .arg(&ra),
+    );
+    assert!(e.contains("only `simulate` experiments"), "{e}");
+}
+
 #[test]
 fn bad_points_fail_before_anything_runs_and_failing_points_are_reported() {
     let tmp = tempfile::tempdir().unwrap();

@@ -55,6 +55,12 @@ pub struct SweepArgs {
     /// staged: running or killed, not run) and their parameters, then exit.
     #[arg(long, conflicts_with_all = ["merge", "emit_slurm"])]
     pub list: bool,
+    /// Another sweep's results directory (repeatable): a point still to run whose resolved
+    /// configuration equals one of its finished points' (`simulate` experiments, the same
+    /// arguments; keys that cannot change results aside) gets a copy of that point's outputs
+    /// instead of a run. Its `point.json` names the donor and the build that ran it.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["merge", "emit_slurm", "list"])]
+    pub reuse: Vec<PathBuf>,
 }
 
 /// `summary.json`: what the merged table holds.
@@ -141,6 +147,9 @@ pub fn run(args: SweepArgs) -> Result<()> {
             other_builds.push(format!("p{:05} ({})", p.index, rec.build));
         }
     }
+    if !args.reuse.is_empty() {
+        pending = reuse(&e, pending, args.quick, &store, &args.reuse)?;
+    }
     if !other_builds.is_empty() {
         // Kept, not rerun: a rebuild rarely changes results, and rerunning is the user's call.
         let n = other_builds.len();
@@ -184,6 +193,87 @@ pub fn run(args: SweepArgs) -> Result<()> {
         );
     }
     unfinished(&missing)
+}
+
+/// `--reuse`: finish each of `pending` whose resolved configuration a finished point of
+/// `roots` shares with a copy of its outputs; returns the points still to run.
+fn reuse<'a>(
+    e: &Experiment,
+    pending: Vec<&'a Point>,
+    quick: bool,
+    store: &Store,
+    roots: &[PathBuf],
+) -> Result<Vec<&'a Point>> {
+    use rtsim_sweep::SweepCommand;
+    if e.command != SweepCommand::Simulate {
+        bail!(
+            "--reuse: only `simulate` experiments reuse points; {} runs `{}`",
+            e.path.display(),
+            e.command.name()
+        );
+    }
+    let donors = rtsim_sweep::reuse::donors(roots)?;
+    let defaults = rtsim_sweep::reuse::settings(&rtsim_config::to_toml_string(
+        &rtsim_run::RunConfig::default(),
+    )?)
+    .context("the built-in defaults do not parse")?;
+    let mut left = Vec::new();
+    for p in pending {
+        let settings = resolved_settings(e, p)?;
+        let found =
+            rtsim_sweep::reuse::find(&donors, e.command.name(), &e.args, &settings, &defaults);
+        let Some((d, predates)) = found else {
+            left.push(p);
+            continue;
+        };
+        store.adopt(&PointRecord::of(e, p, quick), d)?;
+        eprintln!(
+            "rtsim sweep: point p{:05} reused from {} ({} point {}, run by {}){}",
+            p.index,
+            d.dir.display(),
+            d.record.experiment,
+            d.record.index,
+            d.record.build,
+            if predates.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; its build predates {}, here at the default",
+                    predates.join(", ")
+                )
+            }
+        );
+    }
+    Ok(left)
+}
+
+/// The settings of point `p`'s resolved configuration ([`rtsim_sweep::reuse::settings`]):
+/// resolved here as its `rtsim simulate` process would (its scene is loaded for the scene's
+/// defaults).
+fn resolved_settings(
+    e: &Experiment,
+    p: &Point,
+) -> Result<std::collections::BTreeMap<String, String>> {
+    use clap::Parser;
+    let mut line: Vec<String> = vec!["rtsim".into(), e.command.name().into()];
+    line.extend(e.args.iter().cloned());
+    let cli = crate::cli::Cli::try_parse_from(&line)
+        .with_context(|| format!("{}: parsing `args`", e.path.display()))?;
+    let crate::cli::Command::Simulate(a) = cli.command else {
+        unreachable!("only simulate experiments reuse points")
+    };
+    let flags = crate::commands::simulate::flags(&a)?;
+    let mut inputs = crate::run_config::inputs(&a.scene, &flags)?;
+    let origin = format!("{} point {}", e.path.display(), p.index);
+    inputs.config_text = Some((origin, p.config_toml.clone()));
+    let resolved = rtsim_run::resolve(&inputs, &mut |_| {})?;
+    let text = rtsim_config::to_toml_string(&resolved.config)?;
+    rtsim_sweep::reuse::settings(&text).with_context(|| {
+        format!(
+            "point {}: its resolved configuration does not parse",
+            p.index
+        )
+    })
 }
 
 /// The points numbered `chosen`, in that order (numbers `select` already checked).
@@ -691,6 +781,7 @@ mod tests {
             emit_slurm: None,
             sbatch: Vec::new(),
             list: false,
+            reuse: Vec::new(),
         }
     }
 

@@ -14,6 +14,7 @@ use crate::html::{Section, Val, fixed, significant, table, td, td_missing_row, t
 use crate::paper::{self, DramCols};
 use crate::table::{Cell, Row};
 use crate::{Arch, Figure, Results, SCENE_COLUMN};
+use rtsim_sweep::reuse::result_neutral;
 use std::collections::BTreeMap;
 
 /// TMs on the chip.
@@ -191,18 +192,6 @@ struct Curve<'a> {
     fixed: f64,
     variant: String,
     rows: Vec<&'a Row>,
-}
-
-/// Configuration keys that never change a run's results: where it ran, what it wrote and how
-/// the host ran it (the engine, the time series and the number of host threads give
-/// identical results, tests check it). Not `sim.window` nor `sim.cycle_limit`: they decide
-/// what is simulated.
-fn result_neutral(key: &str) -> bool {
-    key.starts_with("output.")
-        || matches!(
-            key,
-            "threads" | "scene.dir" | "bvh.parallel_threshold" | "sim.mode" | "sim.timeline_cycles"
-        )
 }
 
 /// A setting's value in a legend (`–`: the row does not record the setting).

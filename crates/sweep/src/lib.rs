@@ -16,12 +16,15 @@
 //!   all points merged into CSV and JSON lines.
 //! - [`slurm`]: an `sbatch` array job (one task per point) and a dependent merge job.
 //! - [`select`]: the points a command line names (`--point 3,7-9`).
+//! - [`reuse`]: finished points of other results directories whose resolved configuration a
+//!   point to run shares (`--reuse DIR`).
 //!
 //! The crate decides *what* to run and where results go; the `rtsim sweep` command runs the
 //! processes.
 
 pub mod experiment;
 pub mod results;
+pub mod reuse;
 pub mod select;
 pub mod slurm;
 pub mod store;

@@ -66,6 +66,20 @@ pub struct PointRecord {
     /// The build that ran it (not part of the point's identity; empty in older records).
     #[serde(default)]
     pub build: Build,
+    /// Where its outputs were copied from, if it was not run here but reused (`--reuse`; not
+    /// part of the point's identity).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reused_from: Option<ReusedFrom>,
+}
+
+/// The finished point a reused point's outputs were copied from ([`crate::reuse`]).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ReusedFrom {
+    /// Its experiment's name and point number.
+    pub experiment: String,
+    pub index: usize,
+    /// Its directory, as given to `--reuse`.
+    pub dir: String,
 }
 
 impl PointRecord {
@@ -79,18 +93,19 @@ impl PointRecord {
             params: p.params_json(),
             config: p.config_toml.clone(),
             build: Build::current(),
+            reused_from: None,
         }
     }
 
-    /// Whether two records are of the same point (whatever build ran them).
+    /// Whether two records are of the same point (whatever build ran them, and wherever it
+    /// ran).
     pub fn same_point(&self, other: &PointRecord) -> bool {
-        PointRecord {
+        let identity = |r: &PointRecord| PointRecord {
             build: Build::default(),
-            ..self.clone()
-        } == PointRecord {
-            build: Build::default(),
-            ..other.clone()
-        }
+            reused_from: None,
+            ..r.clone()
+        };
+        identity(self) == identity(other)
     }
 
     /// What makes this finished point's record differ from `wanted`'s (the build aside), one
@@ -356,6 +371,38 @@ impl Store {
         rtsim_core::output::write_atomic(&path, text.as_bytes()).map_err(|e| Self::io(&path, e))?;
         let done = self.point_dir(record.index);
         std::fs::rename(&staging, &done).map_err(|e| Self::io(&done, e))
+    }
+
+    /// Finish `record`'s point with a copy of `donor`'s outputs (every file of its directory
+    /// but its record and config file) instead of running it: staged and renamed into place
+    /// like a run, its record naming the donor's build and directory.
+    pub fn adopt(
+        &self,
+        record: &PointRecord,
+        donor: &crate::reuse::Donor,
+    ) -> Result<(), SweepError> {
+        let staging = self.begin(record)?;
+        let entries =
+            std::fs::read_dir(&donor.dir).map_err(|e| rtsim_core::FileError::io(&donor.dir, e))?;
+        for e in entries {
+            let e = e.map_err(|e| rtsim_core::FileError::io(&donor.dir, e))?;
+            let name = e.file_name();
+            if name == RECORD || name == CONFIG || !e.path().is_file() {
+                continue;
+            }
+            let to = staging.join(&name);
+            std::fs::copy(e.path(), &to).map_err(|err| Self::io(&to, err))?;
+        }
+        let rec = PointRecord {
+            build: donor.record.build.clone(),
+            reused_from: Some(ReusedFrom {
+                experiment: donor.record.experiment.clone(),
+                index: donor.record.index,
+                dir: donor.dir.display().to_string(),
+            }),
+            ..record.clone()
+        };
+        self.finish(&rec)
     }
 
     /// The point's command failed: keep its leftovers, why it ended (`exit`, e.g. "exit status
