@@ -30,16 +30,9 @@ pub fn result_neutral(key: &str) -> bool {
 /// A resolved configuration's settings that decide its results: every leaf as a dotted key
 /// and its value written as TOML, result-neutral keys left out; `None` if it does not parse.
 pub fn settings(resolved_toml: &str) -> Option<BTreeMap<String, String>> {
-    let table: toml::Table = resolved_toml.parse().ok()?;
-    let mut leaves = Vec::new();
-    crate::experiment::flatten("", &table, &mut leaves);
-    Some(
-        leaves
-            .into_iter()
-            .filter(|(k, _)| !result_neutral(k))
-            .map(|(k, v)| (k, v.to_string()))
-            .collect(),
-    )
+    let mut all = crate::store::flatten_toml(resolved_toml)?;
+    all.retain(|k, _| !result_neutral(k));
+    Some(all)
 }
 
 /// A finished point that may be reused.

@@ -164,7 +164,7 @@ impl PointRecord {
 
 /// A TOML document's settings as dotted keys and their values written as TOML; `None` if it
 /// does not parse.
-fn flatten_toml(text: &str) -> Option<std::collections::BTreeMap<String, String>> {
+pub(crate) fn flatten_toml(text: &str) -> Option<std::collections::BTreeMap<String, String>> {
     let table: toml::Table = text.parse().ok()?;
     let mut leaves = Vec::new();
     crate::experiment::flatten("", &table, &mut leaves);
