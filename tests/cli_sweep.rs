@@ -198,6 +198,15 @@ fn a_point_another_sweep_ran_with_the_same_configuration_is_reused() {
         tmp.path().join("fresh"),
     );
     ok(&mut sweep(&a, &ra));
+    // --list says which point a donor would finish, and runs nothing.
+    let listed = ok(sweep(&b, &rb).arg("--list").arg("--reuse").arg(&ra));
+    let reusable: Vec<&str> = listed.lines().filter(|l| l.contains("reusable:")).collect();
+    assert_eq!(reusable.len(), 1, "{listed}");
+    assert!(
+        listed.contains("p00001  not run") && reusable[0].contains("(a point 0, run by"),
+        "{listed}"
+    );
+    assert!(!rb.exists());
     let out = sweep(&b, &rb).arg("--reuse").arg(&ra).output().unwrap();
     assert!(out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);

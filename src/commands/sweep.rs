@@ -59,7 +59,8 @@ pub struct SweepArgs {
     /// configuration equals one of its finished points' (`simulate` experiments, the same
     /// arguments; keys that cannot change results aside) gets a copy of that point's outputs
     /// instead of a run. Its `point.json` names the donor and the build that ran it.
-    #[arg(long, value_name = "DIR", conflicts_with_all = ["merge", "emit_slurm", "list"])]
+    /// With --list: say which points still to run a donor would finish.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["merge", "emit_slurm"])]
     pub reuse: Vec<PathBuf>,
 }
 
@@ -109,7 +110,19 @@ pub fn run(args: SweepArgs) -> Result<()> {
         None => None,
     };
     if args.list {
-        return list(&e, &points, chosen.as_deref(), args.quick, &store);
+        let donors = if args.reuse.is_empty() {
+            None
+        } else {
+            Some(Donors::load(&e, &args.reuse)?)
+        };
+        return list(
+            &e,
+            &points,
+            chosen.as_deref(),
+            args.quick,
+            &store,
+            donors.as_ref(),
+        );
     }
     validate_points(&e, &points)?;
     if let Some(dir) = &args.emit_slurm {
@@ -195,6 +208,66 @@ pub fn run(args: SweepArgs) -> Result<()> {
     unfinished(&missing)
 }
 
+/// What `--reuse` compares with: the finished points of its directories, and the settings
+/// of the built-in defaults (for keys a donor's build predates).
+struct Donors {
+    donors: Vec<rtsim_sweep::reuse::Donor>,
+    defaults: std::collections::BTreeMap<String, String>,
+}
+
+impl Donors {
+    fn load(e: &Experiment, roots: &[PathBuf]) -> Result<Donors> {
+        if e.command != rtsim_sweep::SweepCommand::Simulate {
+            bail!(
+                "--reuse: only `simulate` experiments reuse points; {} runs `{}`",
+                e.path.display(),
+                e.command.name()
+            );
+        }
+        let defaults = rtsim_sweep::reuse::settings(&rtsim_config::to_toml_string(
+            &rtsim_run::RunConfig::default(),
+        )?)
+        .context("the built-in defaults do not parse")?;
+        Ok(Donors {
+            donors: rtsim_sweep::reuse::donors(roots)?,
+            defaults,
+        })
+    }
+
+    /// The donor for point `p`, if any, with what it says of it: where it comes from, and the
+    /// keys its build predates.
+    fn find(
+        &self,
+        e: &Experiment,
+        p: &Point,
+    ) -> Result<Option<(&rtsim_sweep::reuse::Donor, String)>> {
+        let settings = resolved_settings(e, p)?;
+        let found = rtsim_sweep::reuse::find(
+            &self.donors,
+            e.command.name(),
+            &e.args,
+            &settings,
+            &self.defaults,
+        );
+        Ok(found.map(|(d, predates)| {
+            let mut about = format!(
+                "{} ({} point {}, run by {})",
+                d.dir.display(),
+                d.record.experiment,
+                d.record.index,
+                d.record.build
+            );
+            if !predates.is_empty() {
+                about += &format!(
+                    "; its build predates {}, here at the default",
+                    predates.join(", ")
+                );
+            }
+            (d, about)
+        }))
+    }
+}
+
 /// `--reuse`: finish each of `pending` whose resolved configuration a finished point of
 /// `roots` shares with a copy of its outputs; returns the points still to run.
 fn reuse<'a>(
@@ -204,45 +277,15 @@ fn reuse<'a>(
     store: &Store,
     roots: &[PathBuf],
 ) -> Result<Vec<&'a Point>> {
-    use rtsim_sweep::SweepCommand;
-    if e.command != SweepCommand::Simulate {
-        bail!(
-            "--reuse: only `simulate` experiments reuse points; {} runs `{}`",
-            e.path.display(),
-            e.command.name()
-        );
-    }
-    let donors = rtsim_sweep::reuse::donors(roots)?;
-    let defaults = rtsim_sweep::reuse::settings(&rtsim_config::to_toml_string(
-        &rtsim_run::RunConfig::default(),
-    )?)
-    .context("the built-in defaults do not parse")?;
+    let donors = Donors::load(e, roots)?;
     let mut left = Vec::new();
     for p in pending {
-        let settings = resolved_settings(e, p)?;
-        let found =
-            rtsim_sweep::reuse::find(&donors, e.command.name(), &e.args, &settings, &defaults);
-        let Some((d, predates)) = found else {
+        let Some((d, about)) = donors.find(e, p)? else {
             left.push(p);
             continue;
         };
         store.adopt(&PointRecord::of(e, p, quick), d)?;
-        eprintln!(
-            "rtsim sweep: point p{:05} reused from {} ({} point {}, run by {}){}",
-            p.index,
-            d.dir.display(),
-            d.record.experiment,
-            d.record.index,
-            d.record.build,
-            if predates.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    "; its build predates {}, here at the default",
-                    predates.join(", ")
-                )
-            }
-        );
+        eprintln!("rtsim sweep: point p{:05} reused from {about}", p.index);
     }
     Ok(left)
 }
@@ -290,13 +333,15 @@ fn by_number<'a>(points: &'a [Point], chosen: &[usize]) -> Vec<&'a Point> {
 }
 
 /// `--list`: each point (or each of `chosen`), where it stands in `store` and its
-/// parameters; then, on stderr, how many are finished and the others as a `--point` list.
+/// parameters (with `--reuse`: which points still to run a donor would finish); then, on
+/// stderr, how many are finished and the others as a `--point` list.
 fn list(
     e: &Experiment,
     points: &[Point],
     chosen: Option<&[usize]>,
     quick: bool,
     store: &Store,
+    donors: Option<&Donors>,
 ) -> Result<()> {
     let shown: Vec<&Point> = match chosen {
         Some(c) => by_number(points, c),
@@ -322,6 +367,13 @@ fn list(
             p.index,
             serde_json::Value::Object(p.params_json())
         );
+        if status != "finished"
+            && status != "conflict"
+            && let Some(donors) = donors
+            && let Some((_, about)) = donors.find(e, p)?
+        {
+            println!("          reusable: {about}");
+        }
         if status == "conflict" {
             let why = match store.record(p.index) {
                 Ok(Some(found)) => rtsim_sweep::store::first_few(&found.differences(&wanted), 3),
