@@ -62,7 +62,12 @@ pub fn run(args: ReportArgs) -> Result<()> {
         .filter(|r| rtsim_report::timeline::is_timeline(r))
         .count();
     let report = if timelines == 0 {
-        rtsim_report::build_many(&args.results)?
+        // For points whose builds predate a setting (`Results::fill_predated`).
+        let defaults = rtsim_report::table::scalars(&rtsim_config::to_toml_string(
+            &rtsim_run::RunConfig::default(),
+        )?)
+        .map_err(|e| anyhow::anyhow!("the built-in defaults do not parse: {e}"))?;
+        rtsim_report::build_many(&args.results, &defaults)?
     } else if timelines == args.results.len() {
         rtsim_report::timeline::build(&args.results)?
     } else {

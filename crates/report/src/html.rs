@@ -191,8 +191,61 @@ pub fn page(r: &Results, sections: &[Section], svgs: &[(String, String, Vec<u8>)
         } else {
             counts.join(", ")
         }
-    );
+    ) + &predated(r);
     document("rtsim report", &intro, sections, svgs)
+}
+
+/// A paragraph naming the settings some points' builds predate and the defaults drawn for
+/// them (empty when there are none).
+fn predated(r: &Results) -> String {
+    if r.predated.is_empty() {
+        return String::new();
+    }
+    let items: Vec<String> = r
+        .predated
+        .iter()
+        .map(|p| {
+            let default = match &p.default {
+                crate::table::Cell::Text(t) => t.clone(),
+                crate::table::Cell::Num(x) => x.to_string(),
+                crate::table::Cell::Bool(b) => b.to_string(),
+            };
+            format!(
+                "<code>{}</code> = <code>{}</code> for point{} {}",
+                escape(&p.key),
+                escape(&default),
+                if p.points.len() == 1 { "" } else { "s" },
+                point_ranges(&p.points)
+            )
+        })
+        .collect();
+    format!(
+        "<p>Settings these points' builds predate, taken at their built-in defaults (a new \
+         setting's default keeps the behaviour before it): {}.</p>\n",
+        items.join("; ")
+    )
+}
+
+/// Points as `K:a–b` ranges of consecutive indices (`a–b` with one results), in order.
+fn point_ranges(points: &[(Option<usize>, usize)]) -> String {
+    let mut runs: Vec<(Option<usize>, usize, usize)> = Vec::new();
+    for &(k, i) in points {
+        match runs.last_mut() {
+            Some((rk, _, last)) if *rk == k && *last + 1 == i => *last = i,
+            _ => runs.push((k, i, i)),
+        }
+    }
+    runs.iter()
+        .map(|&(k, a, b)| {
+            let k = k.map(|k| format!("{k}:")).unwrap_or_default();
+            if a == b {
+                format!("{k}{a}")
+            } else {
+                format!("{k}{a}–{b}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// A page titled `title`: `intro` (HTML), then each section's title, intro, figures (inline
@@ -237,6 +290,20 @@ pub fn document(
 mod tests {
     use super::*;
     use crate::table::Cell;
+
+    #[test]
+    fn points_are_named_in_ranges_per_results() {
+        let p = [
+            (Some(1), 0),
+            (Some(1), 1),
+            (Some(1), 2),
+            (Some(1), 5),
+            (Some(2), 6),
+            (Some(2), 7),
+        ];
+        assert_eq!(point_ranges(&p), "1:0–2, 1:5, 2:6–7");
+        assert_eq!(point_ranges(&[(None, 3)]), "3");
+    }
 
     #[test]
     fn significant_digits_stay_plain() {

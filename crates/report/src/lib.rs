@@ -25,8 +25,9 @@ pub mod svg;
 pub mod table;
 pub mod timeline;
 
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use table::{Row, Table};
+use table::{Cell, Row, Table};
 
 /// Why a report cannot be made.
 #[derive(Debug, thiserror::Error)]
@@ -104,10 +105,23 @@ pub const SCENE_COLUMN: &str = "scene.name";
 
 /// Checked tables: rows with their architecture, from one results directory or table or
 /// several (each row's [`Row::source`] says which, 1-based, when there are several).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Results {
     pub sources: Vec<PathBuf>,
     pub rows: Vec<(Arch, Row)>,
+    /// Settings that some rows' builds predate, drawn at their built-in defaults
+    /// ([`Results::fill_predated`]).
+    pub predated: Vec<Predated>,
+}
+
+/// A setting that the builds of some rows predate (their resolved configurations lack it,
+/// others' have it), drawn for them at its built-in default.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Predated {
+    pub key: String,
+    pub default: Cell,
+    /// The rows given the default, as (results number when several, point index), in order.
+    pub points: Vec<(Option<usize>, usize)>,
 }
 
 impl Results {
@@ -159,19 +173,56 @@ impl Results {
         Ok(Results {
             sources: vec![table.source],
             rows,
+            predated: Vec::new(),
         })
+    }
+
+    /// Give every row completed from a resolved configuration that lacks a setting other
+    /// rows' configurations have the setting's built-in default (`defaults`: the built-in
+    /// configuration's [`table::scalars`]), and record it in [`Results::predated`]. The
+    /// row's build predates the setting, and a new setting's default keeps the behaviour
+    /// before it: the rule `rtsim sweep --reuse` applies (`rtsim_sweep::reuse`). Without it
+    /// a point run before a knob existed would be drawn apart from a later point at the
+    /// knob's default, breaking one curve into pieces. Settings without a built-in default,
+    /// and rows of a table without point directories, are left alone.
+    pub fn fill_predated(&mut self, defaults: &BTreeMap<String, Cell>) {
+        let known: BTreeSet<String> = self
+            .rows
+            .iter()
+            .filter(|(_, row)| row.resolved)
+            .flat_map(|(_, row)| row.params.iter().cloned())
+            .filter(|k| !rtsim_sweep::reuse::result_neutral(k))
+            .collect();
+        for key in known {
+            let Some(default) = defaults.get(&key) else {
+                continue;
+            };
+            let mut points = Vec::new();
+            for (_, row) in self.rows.iter_mut().filter(|(_, row)| row.resolved) {
+                if !row.values.contains_key(&key) {
+                    row.values.insert(key.clone(), default.clone());
+                    row.params.insert(key.clone());
+                    points.push((row.source, row.point));
+                }
+            }
+            if !points.is_empty() {
+                self.predated.push(Predated {
+                    key,
+                    default: default.clone(),
+                    points,
+                });
+            }
+        }
     }
 
     /// Several checked results as one, in order; with more than one, every row is tagged with
     /// its results' number (1-based), which the page shows beside its point index.
     pub fn merge(parts: Vec<Results>) -> Results {
         let several = parts.len() > 1;
-        let mut all = Results {
-            sources: Vec::new(),
-            rows: Vec::new(),
-        };
+        let mut all = Results::default();
         for (i, part) in parts.into_iter().enumerate() {
             all.sources.extend(part.sources);
+            all.predated.extend(part.predated);
             all.rows.extend(part.rows.into_iter().map(|(a, mut row)| {
                 row.source = several.then_some(i + 1);
                 (a, row)
@@ -212,19 +263,27 @@ pub const FIGURE_DIR: &str = "figures";
 /// The page's file name.
 pub const PAGE: &str = "report.html";
 
-/// Read `results` (a sweep directory or its merged table) and draw the report.
-pub fn build(results: &Path) -> Result<Report, ReportError> {
-    build_many(&[results.to_path_buf()])
+/// Read `results` (a sweep directory or its merged table) and draw the report; `defaults`
+/// as for [`build_many`].
+pub fn build(results: &Path, defaults: &BTreeMap<String, Cell>) -> Result<Report, ReportError> {
+    build_many(&[results.to_path_buf()], defaults)
 }
 
 /// Read several results (sweep directories or merged tables) and draw one report over all
 /// their rows: for instance a Figure 7 sweep together with Table 1's runs at 128 TMs.
-pub fn build_many(results: &[PathBuf]) -> Result<Report, ReportError> {
+/// `defaults` are the built-in configuration's settings ([`table::scalars`] of it), given to
+/// rows whose builds predate a setting ([`Results::fill_predated`]).
+pub fn build_many(
+    results: &[PathBuf],
+    defaults: &BTreeMap<String, Cell>,
+) -> Result<Report, ReportError> {
     let parts = results
         .iter()
         .map(|p| Table::load(p).and_then(Results::check))
         .collect::<Result<Vec<_>, _>>()?;
-    render(&Results::merge(parts))
+    let mut all = Results::merge(parts);
+    all.fill_predated(defaults);
+    render(&all)
 }
 
 /// Draw the report of checked results.

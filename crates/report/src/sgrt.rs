@@ -531,6 +531,7 @@ mod tests {
     fn table4_averages_viewpoints_and_computes_the_ratio() {
         let r = Results {
             sources: vec!["t.csv".into()],
+            predated: Vec::new(),
             rows: vec![
                 sgrt_row(0, Arch::SgrtSptrv, 1.0, "primary", 10.0),
                 sgrt_row(1, Arch::SgrtSptrv, 1.0, "primary", 20.0),
@@ -566,6 +567,7 @@ mod tests {
         };
         let r = Results {
             sources: vec!["t.csv".into()],
+            predated: Vec::new(),
             rows: vec![
                 at(0, Arch::SgrtSptrv, 1.0, 10.0),
                 at(1, Arch::SgrtSptrv, 2.0, 40.0),
@@ -584,6 +586,7 @@ mod tests {
         // No viewpoint in common: the means stand, the ratio is not given.
         let r = Results {
             sources: vec!["t.csv".into()],
+            predated: Vec::new(),
             rows: vec![
                 at(1, Arch::SgrtSptrv, 2.0, 40.0),
                 at(2, Arch::Sgrt1, 1.0, 12.0),
@@ -614,6 +617,7 @@ mod tests {
         };
         let r = Results {
             sources: vec!["quick".into(), "full".into()],
+            predated: Vec::new(),
             rows: vec![
                 sized(0, 1, 64.0, 48.0, 1.0, 500.0),
                 sized(0, 2, 1024.0, 768.0, 32.0, 90.0),
@@ -641,6 +645,7 @@ mod tests {
         };
         let r = Results {
             sources: vec!["sweep".into(), "rerun".into()],
+            predated: Vec::new(),
             rows: vec![
                 at(0, 1, 1.0, 90.0),
                 at(1, 1, 2.0, 110.0),
@@ -657,6 +662,7 @@ mod tests {
         // Without viewpoints (older tables) every row counts.
         let r = Results {
             sources: vec!["t.csv".into()],
+            predated: Vec::new(),
             rows: vec![
                 sgrt_row(0, Arch::Sgrt, 4.0, "ao", 90.0),
                 sgrt_row(1, Arch::Sgrt, 4.0, "ao", 120.0),
@@ -678,6 +684,7 @@ mod tests {
         };
         let r = Results {
             sources: vec!["t.csv".into()],
+            predated: Vec::new(),
             rows: vec![
                 shaded(0, 1024.0, 768.0, 100.0),
                 shaded(1, 1920.0, 1080.0, 80.0),
@@ -695,6 +702,7 @@ mod tests {
         // The same at `--quick` scale: 64×48 frames are Table 3's, 96×54 ones Table 6's.
         let r = Results {
             sources: vec!["t.csv".into()],
+            predated: Vec::new(),
             rows: vec![shaded(0, 64.0, 48.0, 100.0), shaded(1, 96.0, 54.0, 80.0)],
         };
         assert!(!table3(&r).contains("data-points=\"0 1\""));
@@ -710,6 +718,7 @@ mod tests {
         conf.values.insert(FPS.into(), Cell::Num(70.0));
         let r = Results {
             sources: vec!["t.csv".into()],
+            predated: Vec::new(),
             rows: vec![shaded(1, 1920.0, 1080.0, 80.0), (a, conf)],
         };
         let t6 = table6(&r);

@@ -899,6 +899,7 @@ mod tests {
     fn results(rows: Vec<(Arch, Row)>) -> Results {
         Results {
             sources: vec!["t.csv".into()],
+            predated: Vec::new(),
             rows,
         }
     }
@@ -1078,6 +1079,76 @@ mod tests {
                 "conference STRaTA (128 TMs) L1 misses".to_string(),
                 vec![1.0, 2.0]
             )]
+        );
+    }
+
+    #[test]
+    fn a_setting_a_build_predates_is_drawn_at_its_default() {
+        // Points 0 and 2 ran before `fill` existed; 1 and 3 have it, at its default and not.
+        // Point 4 comes from a table without point directories: nothing is known of it.
+        let mut r = results(vec![
+            knob_row(0, 4.0, 1.0, &[("arch.strata.policy", "most-rays")]),
+            knob_row(
+                1,
+                16.0,
+                2.0,
+                &[
+                    ("arch.strata.policy", "most-rays"),
+                    ("arch.strata.fill", "counter"),
+                ],
+            ),
+            knob_row(2, 4.0, 3.0, &[("arch.strata.policy", "rays-per-tm")]),
+            knob_row(
+                3,
+                4.0,
+                4.0,
+                &[
+                    ("arch.strata.policy", "most-rays"),
+                    ("arch.strata.fill", "static"),
+                ],
+            ),
+            knob_row(4, 8.0, 5.0, &[]),
+        ]);
+        for (_, row) in &mut r.rows[..4] {
+            row.resolved = true;
+        }
+        let defaults: BTreeMap<String, Cell> = [
+            ("arch.strata.fill", "counter"),
+            ("arch.strata.policy", "most-rays"),
+            ("threads", "0"),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), Cell::Text(v.to_string())))
+        .collect();
+        r.fill_predated(&defaults);
+        assert_eq!(
+            r.predated,
+            [crate::Predated {
+                key: "arch.strata.fill".into(),
+                default: Cell::Text("counter".into()),
+                points: vec![(None, 0), (None, 2)],
+            }],
+            "only the key some rows lack, only for rows with a resolved configuration"
+        );
+        assert!(!r.rows[4].1.values.contains_key("arch.strata.fill"));
+        let names: Vec<(String, Vec<f64>)> = names_and_points(&figure5(&r))
+            .into_iter()
+            .filter(|(n, _)| n.ends_with("L1 misses"))
+            .map(|(n, p)| (n, p.iter().map(|q| q.1).collect()))
+            .collect();
+        // Points 0 and 1 are one curve: before, point 0 was `fill –` and each curve had one
+        // point (none drawn).
+        assert_eq!(
+            names,
+            [(
+                "conference STRaTA (128 TMs; fill counter, policy most-rays) L1 misses".to_string(),
+                vec![1.0, 2.0]
+            )]
+        );
+        let html = crate::html::page(&r, &[], &[]);
+        assert!(
+            html.contains("<code>arch.strata.fill</code> = <code>counter</code> for points 0, 2"),
+            "{html}"
         );
     }
 

@@ -68,6 +68,9 @@ pub struct Row {
     /// the point's resolved configuration) rather than its measurements. A CSV table's
     /// columns are not told apart, so without point directories this holds none of them.
     pub params: BTreeSet<String>,
+    /// Whether the row was completed from its point's resolved configuration (every setting
+    /// the run's build knew is then among `params`).
+    pub resolved: bool,
 }
 
 impl Row {
@@ -298,17 +301,23 @@ fn csv_records(text: &str) -> Result<Vec<Vec<String>>, String> {
 /// Add every scalar of the point's resolved configuration that the row lacks.
 fn complete_from_config(row: &mut Row, path: &Path) -> Result<(), ReportError> {
     let text = std::fs::read_to_string(path).map_err(|e| ReportError::io(path, e))?;
-    let v: toml::Table =
-        toml::from_str(&text).map_err(|e| ReportError::input(path, e.to_string()))?;
+    for (key, c) in scalars(&text).map_err(|e| ReportError::input(path, e))? {
+        row.params.insert(key.clone());
+        row.values.entry(key).or_insert(c);
+    }
+    row.resolved = true;
+    Ok(())
+}
+
+/// Every scalar leaf of a configuration's TOML text, as a dotted key and a cell.
+pub fn scalars(toml_text: &str) -> Result<BTreeMap<String, Cell>, String> {
+    let v: toml::Table = toml::from_str(toml_text).map_err(|e| e.to_string())?;
     let mut leaves = Vec::new();
     rtsim_sweep::experiment::flatten("", &v, &mut leaves);
-    for (key, value) in leaves {
-        if let Some(c) = Cell::from_toml(&value) {
-            row.params.insert(key.clone());
-            row.values.entry(key).or_insert(c);
-        }
-    }
-    Ok(())
+    Ok(leaves
+        .into_iter()
+        .filter_map(|(k, v)| Cell::from_toml(&v).map(|c| (k, c)))
+        .collect())
 }
 
 #[cfg(test)]
@@ -381,6 +390,7 @@ mod tests {
             None,
             "no point directory: nothing added"
         );
+        assert!(t.rows[0].resolved && !t.rows[1].resolved);
     }
 
     #[test]
