@@ -15,7 +15,7 @@ use crate::paper::{self, DramCols};
 use crate::table::{Cell, Row};
 use crate::{Arch, Figure, Results, SCENE_COLUMN};
 use rtsim_sweep::reuse::result_neutral;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// TMs on the chip.
 pub const TMS: &str = "trax.chip.tms";
@@ -207,8 +207,9 @@ fn setting_label(row: &Row, key: &str) -> String {
 /// Curves: rows grouped by (arch, scene, frame, `fixed`), x = `vary`, kept where ≥ 2 x
 /// values. Rows of a group that share an x but differ in a setting (a sweep over a knob as
 /// well as the axis, or two sweeps read together that set it differently) are split into
-/// one curve per combination of the settings that differ there, named in the legend; a
-/// setting that changes only with x (a function of it) does not split. Of two rows at one x
+/// one curve per combination of the settings that differ there, named in the legend (on
+/// every curve of the architecture that holds one value of them); a setting that changes
+/// only with x (a function of it) does not split. Of two rows at one x
 /// with the same settings (a point shared by two sweeps), the first results' first point is
 /// drawn.
 fn curves(
@@ -232,7 +233,9 @@ fn curves(
             .or_default()
             .push(row);
     }
-    let mut out = Vec::new();
+    // Curves to draw: (arch, scene, fixed, the settings that split its group, rows by x).
+    type Drawn<'r> = (Arch, String, f64, BTreeSet<&'r str>, Vec<&'r Row>);
+    let mut drawn: Vec<Drawn<'_>> = Vec::new();
     for ((a, s, fr, f), rows) in groups {
         let scene = if frames.len() > 1 {
             format!("{s} {}", frame_label(fr))
@@ -245,7 +248,7 @@ fn curves(
         for &row in &rows {
             by_x.entry(x_bits(row)).or_default().push(row);
         }
-        let keys: std::collections::BTreeSet<&str> = rows
+        let keys: BTreeSet<&str> = rows
             .iter()
             .flat_map(|row| row.params.iter().map(String::as_str))
             .filter(|k| !result_neutral(k))
@@ -257,6 +260,38 @@ fn curves(
                 })
             })
             .collect();
+        // In the order of their first rows (the first results' first point first).
+        let mut variants: Vec<(Vec<String>, Vec<&Row>)> = Vec::new();
+        for &row in &rows {
+            let v: Vec<String> = keys.iter().map(|k| setting_label(row, k)).collect();
+            match variants.iter_mut().find(|(w, _)| *w == v) {
+                Some((_, rows)) => rows.push(row),
+                None => variants.push((v, vec![row])),
+            }
+        }
+        for (_, mut rows) in variants {
+            rows.sort_by(|p, q| {
+                x_of(a, p)
+                    .total_cmp(&x_of(a, q))
+                    .then(p.source.cmp(&q.source))
+                    .then(p.point.cmp(&q.point))
+            });
+            rows.dedup_by(|p, q| x_of(a, p) == x_of(a, q));
+            if rows.len() >= 2 {
+                drawn.push((a, scene.clone(), f64::from_bits(f), keys.clone(), rows));
+            }
+        }
+    }
+    // A setting that splits a curve of an architecture is named on all its curves that hold
+    // one value of it, so a curve drawn alone (one scene run under a knob only) does not
+    // read as the default.
+    let mut named: BTreeMap<Arch, BTreeSet<&str>> = BTreeMap::new();
+    for (a, _, _, keys, _) in &drawn {
+        named.entry(*a).or_default().extend(keys.iter().copied());
+    }
+    let mut out = Vec::new();
+    for (a, scene, fixed, _, rows) in drawn {
+        let keys = &named[&a];
         // Legend names: a key's last part, or the whole key where two share it.
         let short = |k: &str| {
             let last = k.rsplit('.').next().unwrap_or(k);
@@ -270,40 +305,23 @@ fn curves(
                 last.to_string()
             }
         };
-        // In the order of their first rows (the first results' first point first).
-        let mut variants: Vec<(Vec<String>, Vec<&Row>)> = Vec::new();
-        for &row in &rows {
-            let v: Vec<String> = keys.iter().map(|k| setting_label(row, k)).collect();
-            match variants.iter_mut().find(|(w, _)| *w == v) {
-                Some((_, rows)) => rows.push(row),
-                None => variants.push((v, vec![row])),
-            }
-        }
-        for (values, mut rows) in variants {
-            rows.sort_by(|p, q| {
-                x_of(a, p)
-                    .total_cmp(&x_of(a, q))
-                    .then(p.source.cmp(&q.source))
-                    .then(p.point.cmp(&q.point))
-            });
-            rows.dedup_by(|p, q| x_of(a, p) == x_of(a, q));
-            if rows.len() < 2 {
-                continue;
-            }
-            let variant = keys
-                .iter()
-                .zip(&values)
-                .map(|(k, v)| format!("{} {v}", short(k)))
-                .collect::<Vec<_>>()
-                .join(", ");
-            out.push(Curve {
-                arch: a,
-                scene: scene.clone(),
-                fixed: f64::from_bits(f),
-                variant,
-                rows,
-            });
-        }
+        let variant = keys
+            .iter()
+            .filter_map(|k| {
+                let v = setting_label(rows[0], k);
+                rows.iter()
+                    .all(|row| setting_label(row, k) == v)
+                    .then(|| format!("{} {v}", short(k)))
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        out.push(Curve {
+            arch: a,
+            scene,
+            fixed,
+            variant,
+            rows,
+        });
     }
     out
 }
@@ -1079,6 +1097,57 @@ mod tests {
                 "conference STRaTA (128 TMs) L1 misses".to_string(),
                 vec![1.0, 2.0]
             )]
+        );
+    }
+
+    #[test]
+    fn a_setting_that_splits_one_scene_is_named_on_the_others_curves() {
+        let remedy = [
+            ("arch.strata.policy", "rays-per-tm"),
+            ("arch.strata.fill", "static"),
+        ];
+        let default = [
+            ("arch.strata.policy", "most-rays"),
+            ("arch.strata.fill", "counter"),
+        ];
+        let sibenik = |mut row: (Arch, Row)| {
+            row.1
+                .values
+                .insert(SCENE_COLUMN.into(), Cell::Text("sibenik".into()));
+            row
+        };
+        // Conference only under the remedies (its banks change with the size: not named);
+        // Sibenik under both.
+        let r = results(vec![
+            knob_row(
+                0,
+                4.0,
+                1.0,
+                &[remedy[0], remedy[1], ("arch.strata.stream.banks", "16")],
+            ),
+            knob_row(
+                1,
+                16.0,
+                2.0,
+                &[remedy[0], remedy[1], ("arch.strata.stream.banks", "32")],
+            ),
+            sibenik(knob_row(2, 4.0, 3.0, &remedy)),
+            sibenik(knob_row(3, 16.0, 4.0, &remedy)),
+            sibenik(knob_row(4, 4.0, 5.0, &default)),
+            sibenik(knob_row(5, 16.0, 6.0, &default)),
+        ]);
+        let names: Vec<String> = names_and_points(&figure5(&r))
+            .into_iter()
+            .filter(|(n, _)| n.ends_with("L1 misses"))
+            .map(|(n, _)| n)
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "conference STRaTA (128 TMs; fill static, policy rays-per-tm) L1 misses",
+                "sibenik STRaTA (128 TMs; fill static, policy rays-per-tm) L1 misses",
+                "sibenik STRaTA (128 TMs; fill counter, policy most-rays) L1 misses",
+            ]
         );
     }
 
