@@ -10,6 +10,14 @@ use toml::Value;
 /// A flag given on the command line, as a dotted key and value.
 pub type Flag = (&'static str, Value);
 
+/// The built-in configuration (before presets and scene defaults) as TOML: what a key that a
+/// point's build predates is taken to be (`rtsim sweep --reuse`, `rtsim report`).
+pub fn builtin_defaults_toml() -> Result<String> {
+    Ok(rtsim_config::to_toml_string(
+        &rtsim_run::RunConfig::default(),
+    )?)
+}
+
 /// The run's inputs from the shared scene flags plus a command's own `flags`.
 pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
     let mut i = rtsim_run::Inputs {

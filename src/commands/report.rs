@@ -63,10 +63,8 @@ pub fn run(args: ReportArgs) -> Result<()> {
         .count();
     let report = if timelines == 0 {
         // For points whose builds predate a setting (`Results::fill_predated`).
-        let defaults = rtsim_report::table::scalars(&rtsim_config::to_toml_string(
-            &rtsim_run::RunConfig::default(),
-        )?)
-        .map_err(|e| anyhow::anyhow!("the built-in defaults do not parse: {e}"))?;
+        let defaults = rtsim_report::table::scalars(&crate::run_config::builtin_defaults_toml()?)
+            .map_err(|e| anyhow::anyhow!("the built-in defaults do not parse: {e}"))?;
         rtsim_report::build_many(&args.results, &defaults)?
     } else if timelines == args.results.len() {
         rtsim_report::timeline::build(&args.results)?

@@ -224,10 +224,8 @@ impl Donors {
                 e.command.name()
             );
         }
-        let defaults = rtsim_sweep::reuse::settings(&rtsim_config::to_toml_string(
-            &rtsim_run::RunConfig::default(),
-        )?)
-        .context("the built-in defaults do not parse")?;
+        let defaults = rtsim_sweep::reuse::settings(&crate::run_config::builtin_defaults_toml()?)
+            .context("the built-in defaults do not parse")?;
         Ok(Donors {
             donors: rtsim_sweep::reuse::donors(roots)?,
             defaults,

@@ -991,6 +991,12 @@ mod tests {
     }
 
     /// A STRaTA Conference row at 128 TMs, stream size `mb` MB, value `x`, with settings.
+    /// `experiments/strata-remedies.toml`'s two settings.
+    const REMEDIES: [(&str, &str); 2] = [
+        ("arch.strata.policy", "rays-per-tm"),
+        ("arch.strata.fill", "static"),
+    ];
+
     fn knob_row(point: usize, mb: f64, x: f64, settings: &[(&str, &str)]) -> (Arch, Row) {
         let mut row = trax_row(point, Arch::Strata, "conference", 128.0, mb * 1048576.0, x);
         for (k, v) in settings {
@@ -1026,10 +1032,7 @@ mod tests {
     #[test]
     fn rows_that_share_a_size_but_not_a_setting_are_separate_curves() {
         let default = [("arch.strata.policy", "most-rays")];
-        let remedy = [
-            ("arch.strata.policy", "rays-per-tm"),
-            ("arch.strata.fill", "static"),
-        ];
+        let remedy = REMEDIES;
         // A setting that changes only with the size (here `banks`) splits nothing; one that
         // differs at a size does, and where or how the runs ran (`scene.dir`, `threads`,
         // `sim.mode`) never does.
@@ -1102,10 +1105,7 @@ mod tests {
 
     #[test]
     fn a_setting_that_splits_one_scene_is_named_on_the_others_curves() {
-        let remedy = [
-            ("arch.strata.policy", "rays-per-tm"),
-            ("arch.strata.fill", "static"),
-        ];
+        let remedy = REMEDIES;
         let default = [
             ("arch.strata.policy", "most-rays"),
             ("arch.strata.fill", "counter"),
