@@ -18,6 +18,19 @@ pub fn builtin_defaults_toml() -> Result<String> {
     )?)
 }
 
+/// The configuration an `arch.preset` alone gives (no scene, workload or other setting; the
+/// DRAM preset it names unless `dram` gives another) as TOML: what `rtsim report` names a
+/// point's departures from.
+pub fn preset_toml(arch: &str, dram: Option<&str>) -> Result<String> {
+    let mut inputs = rtsim_run::Inputs::default();
+    inputs.flag("arch.preset", arch);
+    if let Some(d) = dram {
+        inputs.flag("dram.preset", d);
+    }
+    let config: RunConfig = rtsim_run::layers(&inputs, None)?.build()?;
+    Ok(rtsim_config::to_toml_string(&config)?)
+}
+
 /// The run's inputs from the shared scene flags plus a command's own `flags`.
 pub fn inputs(args: &SceneArgs, flags: &[Flag]) -> Result<rtsim_run::Inputs> {
     let mut i = rtsim_run::Inputs {

@@ -63,8 +63,18 @@ pub fn run(args: ReportArgs) -> Result<()> {
         .count();
     let report = if timelines == 0 {
         // For points whose builds predate a setting (`Results::fill_predated`).
-        let defaults = rtsim_report::table::scalars(&crate::run_config::builtin_defaults_toml()?)
+        let builtin = rtsim_report::table::scalars(&crate::run_config::builtin_defaults_toml()?)
             .map_err(|e| anyhow::anyhow!("the built-in defaults do not parse: {e}"))?;
+        // What points' settings are compared with (`Results::find_departures`); a preset
+        // this build does not know (a point of another build) is not compared.
+        let presets = |arch: &str, dram: Option<&str>| {
+            let toml = crate::run_config::preset_toml(arch, dram).ok()?;
+            rtsim_report::table::scalars(&toml).ok()
+        };
+        let defaults = rtsim_report::Defaults {
+            builtin,
+            presets: &presets,
+        };
         rtsim_report::build_many(&args.results, &defaults)?
     } else if timelines == args.results.len() {
         rtsim_report::timeline::build(&args.results)?

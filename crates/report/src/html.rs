@@ -4,7 +4,7 @@
 //! `data-points`, `data-value`), so the page can be checked against the merged table.
 
 use crate::svg::escape;
-use crate::table::Row;
+use crate::table::{Cell, Row};
 use crate::{FIGURE_DIR, Figure, Results};
 
 /// What a section holds, in order.
@@ -191,7 +191,8 @@ pub fn page(r: &Results, sections: &[Section], svgs: &[(String, String, Vec<u8>)
         } else {
             counts.join(", ")
         }
-    ) + &predated(r);
+    ) + &predated(r)
+        + &departures(r);
     document("rtsim report", &intro, sections, svgs)
 }
 
@@ -205,11 +206,7 @@ fn predated(r: &Results) -> String {
         .predated
         .iter()
         .map(|p| {
-            let default = match &p.default {
-                crate::table::Cell::Text(t) => t.clone(),
-                crate::table::Cell::Num(x) => x.to_string(),
-                crate::table::Cell::Bool(b) => b.to_string(),
-            };
+            let default = setting(&p.key, &p.default);
             format!(
                 "<code>{}</code> = <code>{}</code> for point{} {}",
                 escape(&p.key),
@@ -224,6 +221,69 @@ fn predated(r: &Results) -> String {
          setting's default keeps the behaviour before it): {}.</p>\n",
         items.join("; ")
     )
+}
+
+/// A list, by architecture, of the settings in which points differ from their presets
+/// (empty when there are none): an experiment's axes and base, which the tables and a curve
+/// drawn alone do not show.
+fn departures(r: &Results) -> String {
+    if r.departures.is_empty() {
+        return String::new();
+    }
+    let mut items = String::new();
+    for arch in crate::Arch::ALL {
+        // One entry per key, its values in order: `key` = a (points …), b (points …).
+        let mut of: Vec<(&str, Vec<String>)> = Vec::new();
+        for d in r.departures.iter().filter(|d| d.arch == arch) {
+            let value = format!(
+                "<code>{}</code> (point{} {})",
+                escape(&setting(&d.key, &d.value)),
+                if d.points.len() == 1 { "" } else { "s" },
+                point_ranges(&d.points)
+            );
+            match of.last_mut() {
+                Some((key, values)) if *key == d.key => values.push(value),
+                _ => of.push((&d.key, vec![value])),
+            }
+        }
+        if !of.is_empty() {
+            let keys: Vec<String> = of
+                .iter()
+                .map(|(key, values)| {
+                    format!("<code>{}</code> = {}", escape(key), values.join(", "))
+                })
+                .collect();
+            items.push_str(&format!(
+                "<li><code>{}</code>: {}</li>\n",
+                arch.preset(),
+                keys.join("; ")
+            ));
+        }
+    }
+    format!(
+        "<p>Settings in which points differ from their presets (the configuration that \
+         <code>arch.preset</code> alone gives; scene and workload settings aside):</p>\n<ul>\n{items}</ul>\n"
+    )
+}
+
+/// A setting's value as written in a configuration; a byte size (a key ending in `bytes`)
+/// that is a whole number of KiB or MiB with its unit as well.
+fn setting(key: &str, value: &Cell) -> String {
+    match value {
+        Cell::Text(t) => t.clone(),
+        Cell::Bool(b) => b.to_string(),
+        Cell::Num(x) => {
+            let unit = [(1u64 << 20, "MiB"), (1 << 10, "KiB")]
+                .into_iter()
+                .find(|(u, _)| x.fract() == 0.0 && *x >= *u as f64 && x % *u as f64 == 0.0);
+            match unit {
+                Some((u, name)) if key.ends_with("bytes") => {
+                    format!("{x} ({} {name})", x / u as f64)
+                }
+                _ => x.to_string(),
+            }
+        }
+    }
 }
 
 /// Points as `K:a–b` ranges of consecutive indices (`a–b` with one results), in order.
@@ -289,7 +349,6 @@ pub fn document(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::table::Cell;
 
     #[test]
     fn points_are_named_in_ranges_per_results() {
@@ -303,6 +362,60 @@ mod tests {
         ];
         assert_eq!(point_ranges(&p), "1:0–2, 1:5, 2:6–7");
         assert_eq!(point_ranges(&[(None, 3)]), "3");
+    }
+
+    #[test]
+    fn departures_are_listed_by_architecture_and_key() {
+        let d = |arch, key: &str, value, points: &[usize]| crate::Departure {
+            arch,
+            key: key.into(),
+            value,
+            points: points.iter().map(|&p| (None, p)).collect(),
+        };
+        let r = Results {
+            departures: vec![
+                d(
+                    crate::Arch::TraxBaseline,
+                    "arch.trax.tms",
+                    Cell::Num(1.0),
+                    &[0],
+                ),
+                d(
+                    crate::Arch::TraxBaseline,
+                    "arch.trax.tms",
+                    Cell::Num(2.0),
+                    &[1],
+                ),
+                d(
+                    crate::Arch::Strata,
+                    "arch.strata.fill",
+                    Cell::Text("static".into()),
+                    &[2, 3],
+                ),
+                d(
+                    crate::Arch::Strata,
+                    "arch.strata.stream.bytes",
+                    Cell::Num(524288.0),
+                    &[2],
+                ),
+            ],
+            ..Results::default()
+        };
+        let p = departures(&r);
+        assert!(p.contains(
+            "<li><code>trax-baseline</code>: <code>arch.trax.tms</code> = <code>1</code> (point 0), <code>2</code> (point 1)</li>"
+        ), "{p}");
+        assert!(p.contains(
+            "<li><code>strata</code>: <code>arch.strata.fill</code> = <code>static</code> (points 2–3); <code>arch.strata.stream.bytes</code> = <code>524288 (512 KiB)</code> (point 2)</li>"
+        ), "{p}");
+        assert_eq!(departures(&Results::default()), "");
+        assert_eq!(
+            setting("arch.trax.l2.size_bytes", &Cell::Num(1536.0)),
+            "1536"
+        );
+        let mib16 = setting("arch.strata.stream.bytes", &Cell::Num(16777216.0));
+        assert_eq!(mib16, "16777216 (16 MiB)");
+        assert_eq!(setting("arch.trax.tms", &Cell::Num(4096.0)), "4096");
     }
 
     #[test]

@@ -112,6 +112,8 @@ pub struct Results {
     /// Settings that some rows' builds predate, drawn at their built-in defaults
     /// ([`Results::fill_predated`]).
     pub predated: Vec<Predated>,
+    /// Settings in which rows differ from their presets ([`Results::find_departures`]).
+    pub departures: Vec<Departure>,
 }
 
 /// A setting that the builds of some rows predate (their resolved configurations lack it,
@@ -123,6 +125,44 @@ pub struct Predated {
     /// The rows given the default, as (results number when several, point index), in order.
     pub points: Vec<(Option<usize>, usize)>,
 }
+
+/// A setting in which rows of one architecture differ from the configuration of their
+/// presets alone: an experiment's axis or base (`arch.strata.fill = "static"` in the
+/// remedies' sweep), which a table or a curve drawn from those rows alone would not show.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Departure {
+    pub arch: Arch,
+    pub key: String,
+    pub value: Cell,
+    /// The rows holding it, in order.
+    pub points: Points,
+}
+
+/// The settings ([`table::scalars`]) of the configuration that an `arch.preset` alone gives
+/// (no scene, workload or other setting), with the given `dram.preset` in place of the one
+/// the architecture's preset names (`None`: that one); `None` for a preset the build does not
+/// know. The binary resolves it (`rtsim_run::layers`).
+pub type PresetSettings<'a> = &'a dyn Fn(&str, Option<&str>) -> Option<Settings>;
+
+/// A configuration's settings by dotted key.
+pub type Settings = BTreeMap<String, Cell>;
+/// Rows as (results number when several, point index).
+pub type Points = Vec<(Option<usize>, usize)>;
+
+/// Whether a setting is compared with the presets' ([`Results::find_departures`]): the
+/// scene and the workload are the tables' rows and the figures' curves already, the presets
+/// are what is compared with, and result-neutral settings (output, host threads) do not
+/// decide what was simulated.
+pub fn compared_with_presets(key: &str) -> bool {
+    !(key.starts_with("scene.")
+        || key.starts_with("workload.")
+        || key == ARCH_COLUMN
+        || key == DRAM_PRESET
+        || rtsim_sweep::reuse::result_neutral(key))
+}
+
+/// The column naming a row's DRAM preset.
+pub const DRAM_PRESET: &str = "dram.preset";
 
 impl Results {
     /// Check that every row names a known architecture and has every column the report
@@ -174,6 +214,7 @@ impl Results {
             sources: vec![table.source],
             rows,
             predated: Vec::new(),
+            departures: Vec::new(),
         })
     }
 
@@ -215,6 +256,66 @@ impl Results {
         }
     }
 
+    /// Find the settings in which rows completed from a resolved configuration differ from
+    /// the configuration of their presets alone (`presets`), and record them in
+    /// [`Results::departures`], by architecture and key, each value with its rows in order.
+    /// A row whose `dram.preset` is not its architecture's own is compared with the
+    /// configuration of both presets, and the DRAM preset is itself a departure. Run after
+    /// [`Results::fill_predated`], so a setting a row's build predates reads as its default.
+    pub fn find_departures(&mut self, presets: PresetSettings<'_>) {
+        let mut known: BTreeMap<(Arch, Option<String>), Option<Settings>> = BTreeMap::new();
+        let mut found: BTreeMap<(Arch, String), Vec<(Cell, Points)>> = BTreeMap::new();
+        for (arch, row) in self.rows.iter().filter(|(_, row)| row.resolved) {
+            let mut settings = |dram: Option<&str>| {
+                known
+                    .entry((*arch, dram.map(str::to_string)))
+                    .or_insert_with(|| presets(arch.preset(), dram))
+                    .clone()
+            };
+            let Some(own) = settings(None) else {
+                continue;
+            };
+            let mut differ: Vec<(&str, &Cell)> = Vec::new();
+            let reference = match row.values.get(DRAM_PRESET) {
+                Some(dram) if own.get(DRAM_PRESET) != Some(dram) => {
+                    differ.push((DRAM_PRESET, dram));
+                    let text = match dram {
+                        Cell::Text(t) => Some(t.as_str()),
+                        _ => None,
+                    };
+                    text.and_then(|t| settings(Some(t))).unwrap_or(own)
+                }
+                _ => own,
+            };
+            for key in row.params.iter().filter(|k| compared_with_presets(k)) {
+                if let Some(value) = row.values.get(key)
+                    && reference.get(key) != Some(value)
+                {
+                    differ.push((key.as_str(), value));
+                }
+            }
+            for (key, value) in differ {
+                let values = found.entry((*arch, key.to_string())).or_default();
+                let at = (row.source, row.point);
+                match values.iter_mut().find(|(v, _)| v == value) {
+                    Some((_, points)) => points.push(at),
+                    None => values.push((value.clone(), vec![at])),
+                }
+            }
+        }
+        self.departures = found
+            .into_iter()
+            .flat_map(|((arch, key), values)| {
+                values.into_iter().map(move |(value, points)| Departure {
+                    arch,
+                    key: key.clone(),
+                    value,
+                    points,
+                })
+            })
+            .collect();
+    }
+
     /// Several checked results as one, in order; with more than one, every row is tagged with
     /// its results' number (1-based), which the page shows beside its point index.
     pub fn merge(parts: Vec<Results>) -> Results {
@@ -223,6 +324,7 @@ impl Results {
         for (i, part) in parts.into_iter().enumerate() {
             all.sources.extend(part.sources);
             all.predated.extend(part.predated);
+            all.departures.extend(part.departures);
             all.rows.extend(part.rows.into_iter().map(|(a, mut row)| {
                 row.source = several.then_some(i + 1);
                 (a, row)
@@ -265,24 +367,38 @@ pub const PAGE: &str = "report.html";
 
 /// Read `results` (a sweep directory or its merged table) and draw the report; `defaults`
 /// as for [`build_many`].
-pub fn build(results: &Path, defaults: &BTreeMap<String, Cell>) -> Result<Report, ReportError> {
+pub fn build(results: &Path, defaults: &Defaults<'_>) -> Result<Report, ReportError> {
     build_many(&[results.to_path_buf()], defaults)
+}
+
+/// What rows are completed with and compared with.
+pub struct Defaults<'a> {
+    /// The built-in configuration's settings ([`table::scalars`] of it), given to rows whose
+    /// builds predate a setting ([`Results::fill_predated`]).
+    pub builtin: BTreeMap<String, Cell>,
+    /// The presets' settings, which the page names rows' departures from
+    /// ([`Results::find_departures`]).
+    pub presets: PresetSettings<'a>,
+}
+
+impl std::fmt::Debug for Defaults<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Defaults")
+            .field("builtin", &self.builtin)
+            .finish_non_exhaustive()
+    }
 }
 
 /// Read several results (sweep directories or merged tables) and draw one report over all
 /// their rows: for instance a Figure 7 sweep together with Table 1's runs at 128 TMs.
-/// `defaults` are the built-in configuration's settings ([`table::scalars`] of it), given to
-/// rows whose builds predate a setting ([`Results::fill_predated`]).
-pub fn build_many(
-    results: &[PathBuf],
-    defaults: &BTreeMap<String, Cell>,
-) -> Result<Report, ReportError> {
+pub fn build_many(results: &[PathBuf], defaults: &Defaults<'_>) -> Result<Report, ReportError> {
     let parts = results
         .iter()
         .map(|p| Table::load(p).and_then(Results::check))
         .collect::<Result<Vec<_>, _>>()?;
     let mut all = Results::merge(parts);
-    all.fill_predated(defaults);
+    all.fill_predated(&defaults.builtin);
+    all.find_departures(defaults.presets);
     render(&all)
 }
 

@@ -532,6 +532,7 @@ mod tests {
         let r = Results {
             sources: vec!["t.csv".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![
                 sgrt_row(0, Arch::SgrtSptrv, 1.0, "primary", 10.0),
                 sgrt_row(1, Arch::SgrtSptrv, 1.0, "primary", 20.0),
@@ -568,6 +569,7 @@ mod tests {
         let r = Results {
             sources: vec!["t.csv".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![
                 at(0, Arch::SgrtSptrv, 1.0, 10.0),
                 at(1, Arch::SgrtSptrv, 2.0, 40.0),
@@ -587,6 +589,7 @@ mod tests {
         let r = Results {
             sources: vec!["t.csv".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![
                 at(1, Arch::SgrtSptrv, 2.0, 40.0),
                 at(2, Arch::Sgrt1, 1.0, 12.0),
@@ -618,6 +621,7 @@ mod tests {
         let r = Results {
             sources: vec!["quick".into(), "full".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![
                 sized(0, 1, 64.0, 48.0, 1.0, 500.0),
                 sized(0, 2, 1024.0, 768.0, 32.0, 90.0),
@@ -646,6 +650,7 @@ mod tests {
         let r = Results {
             sources: vec!["sweep".into(), "rerun".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![
                 at(0, 1, 1.0, 90.0),
                 at(1, 1, 2.0, 110.0),
@@ -663,6 +668,7 @@ mod tests {
         let r = Results {
             sources: vec!["t.csv".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![
                 sgrt_row(0, Arch::Sgrt, 4.0, "ao", 90.0),
                 sgrt_row(1, Arch::Sgrt, 4.0, "ao", 120.0),
@@ -685,6 +691,7 @@ mod tests {
         let r = Results {
             sources: vec!["t.csv".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![
                 shaded(0, 1024.0, 768.0, 100.0),
                 shaded(1, 1920.0, 1080.0, 80.0),
@@ -703,6 +710,7 @@ mod tests {
         let r = Results {
             sources: vec!["t.csv".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![shaded(0, 64.0, 48.0, 100.0), shaded(1, 96.0, 54.0, 80.0)],
         };
         assert!(!table3(&r).contains("data-points=\"0 1\""));
@@ -719,6 +727,7 @@ mod tests {
         let r = Results {
             sources: vec!["t.csv".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows: vec![shaded(1, 1920.0, 1080.0, 80.0), (a, conf)],
         };
         let t6 = table6(&r);

@@ -19,6 +19,8 @@ use std::collections::{BTreeMap, BTreeSet};
 
 /// TMs on the chip.
 pub const TMS: &str = "trax.chip.tms";
+/// The setting that gives it.
+const TMS_SETTING: &str = "arch.trax.tms";
 /// Table 1's columns, in its order.
 pub const DRAM_ACCESSES: &str = "trax.dram.accesses";
 pub const ROW_HIT_RATE: &str = "trax.dram.row_hit_rate";
@@ -208,7 +210,8 @@ fn setting_label(row: &Row, key: &str) -> String {
 /// values. Rows of a group that share an x but differ in a setting (a sweep over a knob as
 /// well as the axis, or two sweeps read together that set it differently) are split into
 /// one curve per combination of the settings that differ there, named in the legend (on
-/// every curve of the architecture that holds one value of them); a setting that changes
+/// every curve of the architecture that holds one value of them, as are the settings in
+/// which rows differ from their presets, the axes aside); a setting that changes
 /// only with x (a function of it) does not split. Of two rows at one x
 /// with the same settings (a point shared by two sweeps), the first results' first point is
 /// drawn.
@@ -285,9 +288,19 @@ fn curves(
     // A setting that splits a curve of an architecture is named on all its curves that hold
     // one value of it, so a curve drawn alone (one scene run under a knob only) does not
     // read as the default.
+    // So is a setting in which some of its rows differ from their preset (the remedies'
+    // sweep alone, `Results::departures`), unless it is one of the figures' axes.
     let mut named: BTreeMap<Arch, BTreeSet<&str>> = BTreeMap::new();
     for (a, _, _, keys, _) in &drawn {
         named.entry(*a).or_default().extend(keys.iter().copied());
+    }
+    for d in &r.departures {
+        if let Some(keys) = named.get_mut(&d.arch)
+            && d.key != TMS_SETTING
+            && Some(d.key.as_str()) != size_column(d.arch)
+        {
+            keys.insert(&d.key);
+        }
     }
     let mut out = Vec::new();
     for (a, scene, fixed, _, rows) in drawn {
@@ -918,6 +931,7 @@ mod tests {
         Results {
             sources: vec!["t.csv".into()],
             predated: Vec::new(),
+            departures: Vec::new(),
             rows,
         }
     }
@@ -1148,6 +1162,80 @@ mod tests {
                 "sibenik STRaTA (128 TMs; fill static, policy rays-per-tm) L1 misses",
                 "sibenik STRaTA (128 TMs; fill counter, policy most-rays) L1 misses",
             ]
+        );
+    }
+
+    #[test]
+    fn settings_away_from_the_preset_are_found_and_named_on_a_curve_drawn_alone() {
+        // The remedies' sweep alone: nothing splits its curve, but both points differ from
+        // the preset in the remedies' two settings. Point 1 also runs another DRAM preset,
+        // compared with that preset's settings; point 2 has no resolved configuration.
+        let setting = |row: &mut (Arch, Row), k: &str, v: Cell| {
+            row.1.values.insert(k.to_string(), v);
+            row.1.params.insert(k.to_string());
+        };
+        let mut rows = vec![
+            knob_row(0, 4.0, 1.0, &REMEDIES),
+            knob_row(1, 16.0, 2.0, &REMEDIES),
+            knob_row(2, 8.0, 3.0, &REMEDIES),
+        ];
+        for (i, row) in rows.iter_mut().enumerate() {
+            let size = size_column(Arch::Strata).unwrap();
+            let bytes = row.1.values[size].clone();
+            setting(row, size, bytes);
+            setting(row, "workload.width", Cell::Num(1024.0));
+            let (dram, tcl) = if i == 1 {
+                ("hbm", 20.0)
+            } else {
+                ("gddr5", 10.0)
+            };
+            setting(row, "dram.preset", Cell::Text(dram.into()));
+            setting(row, "dram.tcl", Cell::Num(tcl));
+            row.1.resolved = i < 2;
+        }
+        let mut r = results(rows);
+        let presets = |arch: &str, dram: Option<&str>| {
+            assert_eq!(arch, "strata");
+            let dram = dram.unwrap_or("gddr5");
+            let tcl = if dram == "hbm" { 20.0 } else { 10.0 };
+            Some(BTreeMap::from([
+                ("arch.strata.fill".to_string(), Cell::Text("counter".into())),
+                ("arch.strata.policy".into(), Cell::Text("most-rays".into())),
+                ("arch.strata.stream.bytes".into(), Cell::Num(MB4)),
+                ("dram.preset".into(), Cell::Text(dram.into())),
+                ("dram.tcl".into(), Cell::Num(tcl)),
+            ]))
+        };
+        r.find_departures(&presets);
+        let found: Vec<(&str, Cell, Vec<usize>)> = r
+            .departures
+            .iter()
+            .map(|d| {
+                assert_eq!(d.arch, Arch::Strata);
+                let points = d.points.iter().map(|&(_, p)| p).collect();
+                (d.key.as_str(), d.value.clone(), points)
+            })
+            .collect();
+        let text = |s: &str| Cell::Text(s.into());
+        assert_eq!(
+            found,
+            [
+                ("arch.strata.fill", text("static"), vec![0, 1]),
+                ("arch.strata.policy", text("rays-per-tm"), vec![0, 1]),
+                ("arch.strata.stream.bytes", Cell::Num(4.0 * MB4), vec![1]),
+                ("dram.preset", text("hbm"), vec![1]),
+            ],
+            "the DRAM timing is its own preset's, the workload and the scene are not compared"
+        );
+        let names: Vec<String> = names_and_points(&figure5(&r))
+            .into_iter()
+            .filter(|(n, _)| n.ends_with("L1 misses"))
+            .map(|(n, _)| n)
+            .collect();
+        assert_eq!(
+            names,
+            ["conference STRaTA (128 TMs; fill static, policy rays-per-tm) L1 misses"],
+            "the size is the axis, and the DRAM preset changes along the curve: neither named"
         );
     }
 
