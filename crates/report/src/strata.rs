@@ -1033,6 +1033,20 @@ mod tests {
         row
     }
 
+    /// Figure 5's L1-miss curves: their names and y values.
+    fn l1_curves(r: &Results) -> Vec<(String, Vec<f64>)> {
+        names_and_points(&figure5(r))
+            .into_iter()
+            .filter(|(n, _)| n.ends_with("L1 misses"))
+            .map(|(n, p)| (n, p.iter().map(|q| q.1).collect()))
+            .collect()
+    }
+
+    /// Figure 5's L1-miss curves' names.
+    fn l1_names(r: &Results) -> Vec<String> {
+        l1_curves(r).into_iter().map(|(n, _)| n).collect()
+    }
+
     fn names_and_points(f: &Figure) -> Vec<(String, Vec<(f64, f64)>)> {
         let Body::Lines { series, .. } = &f.chart.body else {
             panic!()
@@ -1076,14 +1090,8 @@ mod tests {
                 &[remedy[0], remedy[1], ("arch.strata.stream.banks", "32")],
             ),
         ]);
-        let l1 = |v: &[(String, Vec<(f64, f64)>)]| -> Vec<(String, Vec<f64>)> {
-            v.iter()
-                .filter(|(n, _)| n.ends_with("L1 misses"))
-                .map(|(n, p)| (n.clone(), p.iter().map(|q| q.1).collect()))
-                .collect()
-        };
         assert_eq!(
-            l1(&names_and_points(&figure5(&r))),
+            l1_curves(&r),
             [
                 (
                     "conference STRaTA (128 TMs; fill –, policy most-rays) L1 misses".to_string(),
@@ -1109,7 +1117,7 @@ mod tests {
                 .collect(),
         );
         assert_eq!(
-            l1(&names_and_points(&figure5(&bare))),
+            l1_curves(&bare),
             [(
                 "conference STRaTA (128 TMs) L1 misses".to_string(),
                 vec![1.0, 2.0]
@@ -1150,11 +1158,7 @@ mod tests {
             sibenik(knob_row(4, 4.0, 5.0, &default)),
             sibenik(knob_row(5, 16.0, 6.0, &default)),
         ]);
-        let names: Vec<String> = names_and_points(&figure5(&r))
-            .into_iter()
-            .filter(|(n, _)| n.ends_with("L1 misses"))
-            .map(|(n, _)| n)
-            .collect();
+        let names = l1_names(&r);
         assert_eq!(
             names,
             [
@@ -1227,11 +1231,7 @@ mod tests {
             ],
             "the DRAM timing is its own preset's, the workload and the scene are not compared"
         );
-        let names: Vec<String> = names_and_points(&figure5(&r))
-            .into_iter()
-            .filter(|(n, _)| n.ends_with("L1 misses"))
-            .map(|(n, _)| n)
-            .collect();
+        let names = l1_names(&r);
         assert_eq!(
             names,
             ["conference STRaTA (128 TMs; fill static, policy rays-per-tm) L1 misses"],
@@ -1288,11 +1288,7 @@ mod tests {
             "only the key some rows lack, only for rows with a resolved configuration"
         );
         assert!(!r.rows[4].1.values.contains_key("arch.strata.fill"));
-        let names: Vec<(String, Vec<f64>)> = names_and_points(&figure5(&r))
-            .into_iter()
-            .filter(|(n, _)| n.ends_with("L1 misses"))
-            .map(|(n, p)| (n, p.iter().map(|q| q.1).collect()))
-            .collect();
+        let names = l1_curves(&r);
         // Points 0 and 1 are one curve: before, point 0 was `fill –` and each curve had one
         // point (none drawn).
         assert_eq!(
@@ -1320,11 +1316,7 @@ mod tests {
                 knob_row(2, 4.0, 3.0, &limited),
                 knob_row(3, 16.0, 4.0, &limited),
             ]);
-            let names: Vec<String> = names_and_points(&figure5(&r))
-                .into_iter()
-                .filter(|(n, _)| n.ends_with("L1 misses"))
-                .map(|(n, _)| n)
-                .collect();
+            let names = l1_names(&r);
             let short = key.rsplit('.').next().unwrap();
             assert_eq!(
                 names,
