@@ -65,8 +65,9 @@ pub fn run(args: ReportArgs) -> Result<()> {
         // For points whose builds predate a setting (`Results::fill_predated`).
         let builtin = rtsim_report::table::scalars(&crate::run_config::builtin_defaults_toml()?)
             .map_err(|e| anyhow::anyhow!("the built-in defaults do not parse: {e}"))?;
-        // What points' settings are compared with (`Results::find_departures`); a preset
-        // this build does not know (a point of another build) is not compared.
+        // What points' settings are compared with (`Results::find_departures`). A DRAM preset
+        // this build does not know (a point of another build) gives `None`: such a point is
+        // compared with its architecture preset's own configuration.
         let presets = |arch: &str, dram: Option<&str>| {
             let toml = crate::run_config::preset_toml(arch, dram).ok()?;
             rtsim_report::table::scalars(&toml).ok()
