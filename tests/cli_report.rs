@@ -305,7 +305,7 @@ fn the_recorded_results_differ_from_their_presets_only_where_their_experiments_s
         remedies.contains(
             "<li><code>strata</code>: <code>arch.strata.fill</code> = <code>static</code> (points 0–11); \
              <code>arch.strata.policy</code> = <code>rays-per-tm</code> (points 0–11); \
-             <code>arch.strata.stream.bytes</code> = <code>524288 (512 KiB)</code> (points 0–1)"
+             <code>arch.strata.stream.bytes</code> = <code>524288 (512 KB)</code> (points 0–1)"
         ),
         "{remedies}"
     );

@@ -267,22 +267,15 @@ fn departures(r: &Results) -> String {
 }
 
 /// A setting's value as written in a configuration; a byte size (a key ending in `bytes`)
-/// that is a whole number of KiB or MiB with its unit as well.
+/// of whole KiB with the figures' label as well (`524288 (512 KB)`).
 fn setting(key: &str, value: &Cell) -> String {
     match value {
         Cell::Text(t) => t.clone(),
         Cell::Bool(b) => b.to_string(),
-        Cell::Num(x) => {
-            let unit = [(1u64 << 20, "MiB"), (1 << 10, "KiB")]
-                .into_iter()
-                .find(|(u, _)| x.fract() == 0.0 && *x >= *u as f64 && x % *u as f64 == 0.0);
-            match unit {
-                Some((u, name)) if key.ends_with("bytes") => {
-                    format!("{x} ({} {name})", x / u as f64)
-                }
-                _ => x.to_string(),
-            }
+        Cell::Num(x) if key.ends_with("bytes") && *x >= 1024.0 && x % 1024.0 == 0.0 => {
+            format!("{x} ({})", crate::chart::bytes_label(*x))
         }
+        Cell::Num(x) => x.to_string(),
     }
 }
 
@@ -406,7 +399,7 @@ mod tests {
             "<li><code>trax-baseline</code>: <code>arch.trax.tms</code> = <code>1</code> (point 0), <code>2</code> (point 1)</li>"
         ), "{p}");
         assert!(p.contains(
-            "<li><code>strata</code>: <code>arch.strata.fill</code> = <code>static</code> (points 2–3); <code>arch.strata.stream.bytes</code> = <code>524288 (512 KiB)</code> (point 2)</li>"
+            "<li><code>strata</code>: <code>arch.strata.fill</code> = <code>static</code> (points 2–3); <code>arch.strata.stream.bytes</code> = <code>524288 (512 KB)</code> (point 2)</li>"
         ), "{p}");
         assert_eq!(departures(&Results::default()), "");
         assert_eq!(
@@ -414,7 +407,7 @@ mod tests {
             "1536"
         );
         let mib16 = setting("arch.strata.stream.bytes", &Cell::Num(16777216.0));
-        assert_eq!(mib16, "16777216 (16 MiB)");
+        assert_eq!(mib16, "16777216 (16 MB)");
         assert_eq!(setting("arch.trax.tms", &Cell::Num(4096.0)), "4096");
     }
 
