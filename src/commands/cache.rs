@@ -109,21 +109,6 @@ struct StatsFile<'a> {
     dram_config: Option<&'a DramConfig>,
 }
 
-/// `table` as `key=value` assignments under `prefix` (for layering a file's [dram] table).
-fn flatten(table: &Table, prefix: &str, out: &mut Vec<String>) {
-    for (k, v) in table {
-        let key = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
-        match v {
-            Value::Table(t) => flatten(t, &key, out),
-            v => out.push(format!("{key}={v}")),
-        }
-    }
-}
-
 /// The cache config, and the DRAM assignments (file's [dram] table, then `--set dram.*`).
 fn resolve(args: &CacheArgs) -> Result<(CacheConfig, Vec<String>)> {
     let mut layers = Layers::new();
@@ -137,14 +122,12 @@ fn resolve(args: &CacheArgs) -> Result<(CacheConfig, Vec<String>)> {
             let Value::Table(d) = d else {
                 return Err(ConfigError::key("dram", format!("{origin}: expected a table")).into());
             };
-            let mut sets = Vec::new();
-            flatten(&d, "", &mut sets);
+            let mut leaves = Vec::new();
+            rtsim_config::flatten("", &d, &mut leaves);
+            let sets = leaves.into_iter().map(|(k, v)| format!("{k}={v}"));
             // An explicit --dram-preset beats the file's preset.
             let flag = args.dram_preset != "gddr5-trax";
-            dram_sets.extend(
-                sets.into_iter()
-                    .filter(|s| !(flag && s.starts_with("preset="))),
-            );
+            dram_sets.extend(sets.filter(|s| !(flag && s.starts_with("preset="))));
         }
         layers.merge_table(table, &origin);
     }

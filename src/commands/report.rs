@@ -75,6 +75,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
         let defaults = rtsim_report::Defaults {
             builtin,
             presets: &presets,
+            reads: &rtsim_run::arch::reads,
         };
         rtsim_report::build_many(&args.results, &defaults)?
     } else if timelines == args.results.len() {

@@ -658,6 +658,23 @@ pub fn parse_value(raw: &str) -> Result<Value, String> {
     }
 }
 
+/// Flatten a table into (dotted key, leaf value) pairs, in the table's order; arrays are
+/// leaves. (Sweeps flatten their experiments and `rtsim report` each point's
+/// `config.resolved.toml` through it.)
+pub fn flatten(prefix: &str, t: &Table, out: &mut Vec<(String, Value)>) {
+    for (k, v) in t {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            Value::Table(inner) => flatten(&key, inner, out),
+            _ => out.push((key, v.clone())),
+        }
+    }
+}
+
 /// Serialise a resolved config as TOML (for `config.resolved.toml`).
 pub fn to_toml_string<T: Serialize>(value: &T) -> Result<String, ConfigError> {
     toml::to_string_pretty(value).map_err(|e| ConfigError::Parse {

@@ -144,6 +144,12 @@ pub struct Departure {
 /// know. The binary resolves it (`rtsim_run::layers`).
 pub type PresetSettings<'a> = &'a dyn Fn(&str, Option<&str>) -> Option<Settings>;
 
+/// Whether the chip of an `arch.preset` reads a setting (`arch.strata.*` is not read by the
+/// baseline, nor `arch.trax.*` by SGRT): a setting its chip does not read is neither a
+/// departure nor a setting the row's build predates. The binary answers with
+/// `rtsim_run::arch::reads`.
+pub type ReadsSetting<'a> = &'a dyn Fn(&str, &str) -> bool;
+
 /// A configuration's settings by dotted key.
 pub type Settings = BTreeMap<String, Cell>;
 /// Rows as (results number when several, point index).
@@ -225,8 +231,10 @@ impl Results {
     /// before it: the rule `rtsim sweep --reuse` applies (`rtsim_sweep::reuse`). Without it
     /// a point run before a knob existed would be drawn apart from a later point at the
     /// knob's default, breaking one curve into pieces. Settings without a built-in default,
-    /// and rows of a table without point directories, are left alone.
-    pub fn fill_predated(&mut self, defaults: &BTreeMap<String, Cell>) {
+    /// and rows of a table without point directories, are left alone. A row is recorded only
+    /// for settings its chip reads (`reads`): the baseline's points are not said to predate
+    /// a STRaTA knob, although they too are given its default.
+    pub fn fill_predated(&mut self, defaults: &BTreeMap<String, Cell>, reads: ReadsSetting<'_>) {
         let known: BTreeSet<String> = self
             .rows
             .iter()
@@ -239,11 +247,13 @@ impl Results {
                 continue;
             };
             let mut points = Vec::new();
-            for (_, row) in self.rows.iter_mut().filter(|(_, row)| row.resolved) {
+            for (arch, row) in self.rows.iter_mut().filter(|(_, row)| row.resolved) {
                 if !row.values.contains_key(&key) {
                     row.values.insert(key.clone(), default.clone());
                     row.params.insert(key.clone());
-                    points.push((row.source, row.point));
+                    if reads(arch.preset(), &key) {
+                        points.push((row.source, row.point));
+                    }
                 }
             }
             if !points.is_empty() {
@@ -260,9 +270,10 @@ impl Results {
     /// the configuration of their presets alone (`presets`), and record them in
     /// [`Results::departures`], by architecture and key, each value with its rows in order.
     /// A row whose `dram.preset` is not its architecture's own is compared with the
-    /// configuration of both presets, and the DRAM preset is itself a departure. Run after
+    /// configuration of both presets, and the DRAM preset is itself a departure. Settings the
+    /// row's chip does not read (`reads`) are not compared: they changed nothing. Run after
     /// [`Results::fill_predated`], so a setting a row's build predates reads as its default.
-    pub fn find_departures(&mut self, presets: PresetSettings<'_>) {
+    pub fn find_departures(&mut self, presets: PresetSettings<'_>, reads: ReadsSetting<'_>) {
         let mut known: BTreeMap<(Arch, Option<String>), Option<Settings>> = BTreeMap::new();
         let mut found: BTreeMap<(Arch, String), Vec<(Cell, Points)>> = BTreeMap::new();
         for (arch, row) in self.rows.iter().filter(|(_, row)| row.resolved) {
@@ -287,7 +298,8 @@ impl Results {
                 }
                 _ => own,
             };
-            for key in row.params.iter().filter(|k| compared_with_presets(k)) {
+            let compared = |k: &&String| compared_with_presets(k) && reads(arch.preset(), k);
+            for key in row.params.iter().filter(compared) {
                 if let Some(value) = row.values.get(key)
                     && reference.get(key) != Some(value)
                 {
@@ -379,6 +391,8 @@ pub struct Defaults<'a> {
     /// The presets' settings, which the page names rows' departures from
     /// ([`Results::find_departures`]).
     pub presets: PresetSettings<'a>,
+    /// Which settings each preset's chip reads ([`ReadsSetting`]).
+    pub reads: ReadsSetting<'a>,
 }
 
 impl std::fmt::Debug for Defaults<'_> {
@@ -397,8 +411,8 @@ pub fn build_many(results: &[PathBuf], defaults: &Defaults<'_>) -> Result<Report
         .map(|p| Table::load(p).and_then(Results::check))
         .collect::<Result<Vec<_>, _>>()?;
     let mut all = Results::merge(parts);
-    all.fill_predated(&defaults.builtin);
-    all.find_departures(defaults.presets);
+    all.fill_predated(&defaults.builtin, defaults.reads);
+    all.find_departures(defaults.presets, defaults.reads);
     render(&all)
 }
 

@@ -1210,7 +1210,7 @@ mod tests {
                 ("dram.tcl".into(), Cell::Num(tcl)),
             ]))
         };
-        r.find_departures(&presets);
+        r.find_departures(&presets, &|_, _| true);
         let found: Vec<(&str, Cell, Vec<usize>)> = r
             .departures
             .iter()
@@ -1237,6 +1237,55 @@ mod tests {
             ["conference STRaTA (128 TMs; fill static, policy rays-per-tm) L1 misses"],
             "the size is the axis, and the DRAM preset changes along the curve: neither named"
         );
+    }
+
+    #[test]
+    fn settings_a_chip_does_not_read_are_neither_predated_nor_departures() {
+        // Point 0 (STRaTA) has `fill`; the baseline's point 1 predates it, and its point 2
+        // was run with a STRaTA setting, which the baseline chip does not read.
+        let mut rows = vec![
+            knob_row(0, 4.0, 1.0, &[("arch.strata.fill", "counter")]),
+            trax_row(1, Arch::TraxBaseline, "conference", 128.0, MB4, 2.0),
+            trax_row(2, Arch::TraxBaseline, "conference", 128.0, MB4, 3.0),
+        ];
+        for (k, v) in [("arch.strata.fill", "static"), ("arch.trax.tms", "64")] {
+            rows[2].1.values.insert(k.into(), Cell::Text(v.into()));
+            rows[2].1.params.insert(k.into());
+        }
+        let mut r = results(rows);
+        for (_, row) in &mut r.rows {
+            row.resolved = true;
+        }
+        let text = |s: &str| Cell::Text(s.into());
+        let defaults = BTreeMap::from([("arch.strata.fill".to_string(), text("counter"))]);
+        let reads =
+            |preset: &str, key: &str| preset == "strata" || !key.starts_with("arch.strata.");
+        r.fill_predated(&defaults, &reads);
+        assert_eq!(r.predated, [], "the baseline does not read `fill`");
+        assert_eq!(r.rows[1].1.values["arch.strata.fill"], text("counter"));
+        let presets = |_: &str, _: Option<&str>| {
+            Some(BTreeMap::from([
+                ("arch.strata.fill".to_string(), text("counter")),
+                ("arch.trax.tms".to_string(), text("128")),
+            ]))
+        };
+        r.find_departures(&presets, &reads);
+        let found: Vec<(Arch, &str, Vec<usize>)> = r
+            .departures
+            .iter()
+            .map(|d| {
+                (
+                    d.arch,
+                    d.key.as_str(),
+                    d.points.iter().map(|p| p.1).collect(),
+                )
+            })
+            .collect();
+        assert_eq!(found, [(Arch::TraxBaseline, "arch.trax.tms", vec![2])]);
+        // Read by every chip, `fill` would be both.
+        let mut r2 = r.clone();
+        r2.find_departures(&presets, &|_, _| true);
+        assert_eq!(r2.departures.len(), 2);
     }
 
     #[test]
@@ -1277,7 +1326,7 @@ mod tests {
         .into_iter()
         .map(|(k, v)| (k.to_string(), Cell::Text(v.to_string())))
         .collect();
-        r.fill_predated(&defaults);
+        r.fill_predated(&defaults, &|_, _| true);
         assert_eq!(
             r.predated,
             [crate::Predated {

@@ -64,6 +64,30 @@ impl Validate for ArchConfig {
     }
 }
 
+/// The chips' own tables of `[arch]`, each with the presets whose chip reads it: the TRaX
+/// chip's (`arch.trax`) is read by the baseline and by STRaTA, which runs on it; STRaTA's
+/// additions (`arch.strata`) by STRaTA alone; SGRT's by the SGRT presets; `functional` reads
+/// none. A setting in a table its run's chip does not read has no effect on the run.
+pub const CHIP_TABLES: &[(&str, &[&str])] = &[
+    ("arch.sgrt", &["sgrt", "sgrt-sptrv", "sgrt-1"]),
+    ("arch.trax", &["trax-baseline", "strata"]),
+    ("arch.strata", &["strata"]),
+];
+
+/// Whether the chip of `preset` reads the setting `key` (a dotted key). Only the chips' own
+/// tables ([`CHIP_TABLES`]) are decided here; any other key is taken to be read.
+pub fn reads(preset: &str, key: &str) -> bool {
+    chip_table(key).is_none_or(|(_, presets)| presets.contains(&preset))
+}
+
+/// The chip table ([`CHIP_TABLES`]) holding `key`, if any.
+pub fn chip_table(key: &str) -> Option<(&'static str, &'static [&'static str])> {
+    CHIP_TABLES
+        .iter()
+        .copied()
+        .find(|(table, _)| key.strip_prefix(table).is_some_and(|r| r.starts_with('.')))
+}
+
 /// What every SGRT preset sets besides `[arch.sgrt]` (SGRT paper §3–§4).
 macro_rules! sgrt_common {
     () => {

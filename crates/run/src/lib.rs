@@ -324,6 +324,31 @@ pub fn layers_named(
     Ok(all)
 }
 
+/// The user's settings (file, flags, `--set`s) in a chip's table that the chip of `preset`
+/// does not read ([`arch::reads`]: `arch.strata.*` on the baseline, `arch.trax.*` on SGRT),
+/// each as a line naming where it was set. Such a setting has no effect on the run; it is
+/// not an error, since `rtsim compare` and `rtsim bench-sim --against-baseline` run several
+/// presets on one command line, and a setting meant for one is rightly unread by the other.
+pub fn unread_settings(inputs: &Inputs, preset: &str) -> Result<Vec<String>, ConfigError> {
+    let upper = upper_layers(inputs, None)?;
+    let mut leaves = Vec::new();
+    rtsim_config::flatten("", upper.table(), &mut leaves);
+    Ok(leaves
+        .into_iter()
+        .filter_map(|(key, _)| {
+            let (table, readers) = arch::chip_table(&key)?;
+            if readers.contains(&preset) {
+                return None;
+            }
+            let message = format!(
+                "has no effect: arch.preset = {preset} does not read [{table}] (read by {})",
+                readers.join(", ")
+            );
+            Some(upper.locate(ConfigError::key(&key, message)).to_string())
+        })
+        .collect())
+}
+
 /// Assemble the layers, load the scene (calling `note` with what loading dropped or noticed),
 /// and re-assemble with the scene's workload defaults beneath the user's layers.
 pub fn resolve(inputs: &Inputs, note: &mut dyn FnMut(&str)) -> Result<Resolved, RunError> {
@@ -359,6 +384,9 @@ pub fn resolve(inputs: &Inputs, note: &mut dyn FnMut(&str)) -> Result<Resolved, 
     }
     for line in scene.report.log_lines() {
         note(&format!("scene `{}`: {line}", scene.name));
+    }
+    for line in unread_settings(inputs, &config.arch.preset)? {
+        note(&line);
     }
     let (mut config, origins) = if scene.workload_defaults.is_empty() {
         (config, first.origins().to_vec())

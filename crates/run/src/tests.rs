@@ -199,3 +199,76 @@ fn a_set_contradicting_a_flag_is_an_error_naming_both() {
     let c: RunConfig = layers(&i, None).unwrap().build().unwrap();
     assert_eq!(c.arch.preset, "strata");
 }
+
+#[test]
+fn every_chip_table_of_arch_is_named_with_its_readers() {
+    // A chip table added to `ArchConfig` without an entry in `CHIP_TABLES` would be taken to
+    // be read by every preset.
+    let t = toml::Table::try_from(arch::ArchConfig::default()).unwrap();
+    let tables: Vec<String> = t
+        .iter()
+        .filter(|(_, v)| v.is_table())
+        .map(|(k, _)| format!("arch.{k}"))
+        .collect();
+    let named: Vec<&str> = arch::CHIP_TABLES.iter().map(|(t, _)| *t).collect();
+    assert_eq!(tables.len(), named.len(), "{tables:?} against {named:?}");
+    for t in &tables {
+        assert!(named.contains(&t.as_str()), "{t} is not in CHIP_TABLES");
+    }
+    for (_, readers) in arch::CHIP_TABLES {
+        for r in *readers {
+            arch::preset(r).unwrap();
+        }
+    }
+    assert!(arch::reads("strata", "arch.trax.tms"));
+    assert!(arch::reads("strata", "arch.strata.fill"));
+    assert!(!arch::reads("trax-baseline", "arch.strata.fill"));
+    assert!(!arch::reads("sgrt", "arch.trax.l2.size_bytes"));
+    assert!(!arch::reads("functional", "arch.sgrt.cores"));
+    // Only whole table names count: `arch.stratafoo` is no chip table.
+    assert!(arch::reads("functional", "arch.stratafoo"));
+    assert!(arch::reads("sgrt", "dram.timing.tRCD"));
+}
+
+#[test]
+fn settings_the_runs_chip_does_not_read_are_named_with_where_they_were_set() {
+    let mut i = inputs(&["arch.strata.fill=static", "arch.trax.tms=4"]);
+    i.flag("arch.preset", "trax-baseline");
+    let lines = unread_settings(&i, "trax-baseline").unwrap();
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(
+        lines[0].contains("--set arch.strata.fill=static"),
+        "{}",
+        lines[0]
+    );
+    assert!(lines[0].contains("arch.strata.fill"), "{}", lines[0]);
+    assert!(
+        lines[0]
+            .contains("arch.preset = trax-baseline does not read [arch.strata] (read by strata)"),
+        "{}",
+        lines[0]
+    );
+    assert!(unread_settings(&i, "strata").unwrap().is_empty());
+    let sgrt = unread_settings(&i, "sgrt").unwrap();
+    assert_eq!(sgrt.len(), 2, "{sgrt:?}");
+    assert!(
+        sgrt[1].contains("read by trax-baseline, strata"),
+        "{}",
+        sgrt[1]
+    );
+    // A file's setting is named by its line.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("run.toml");
+    std::fs::write(&file, "[arch.sgrt]\ncores = 2\n").unwrap();
+    let i = Inputs {
+        config_file: Some(file.clone()),
+        ..Inputs::default()
+    };
+    let lines = unread_settings(&i, "strata").unwrap();
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(
+        lines[0].contains(&format!("{}:2", file.display())),
+        "{}",
+        lines[0]
+    );
+}

@@ -197,21 +197,7 @@ fn flatten_section(t: &Table, section: &str) -> Result<Vec<(String, Value)>, Str
     Ok(out)
 }
 
-/// Flatten a table into (dotted key, leaf value) pairs; arrays are leaves. (`rtsim report`
-/// reads each point's `config.resolved.toml` through it too.)
-pub fn flatten(prefix: &str, t: &Table, out: &mut Vec<(String, Value)>) {
-    for (k, v) in t {
-        let key = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
-        match v {
-            Value::Table(inner) => flatten(&key, inner, out),
-            _ => out.push((key, v.clone())),
-        }
-    }
-}
+pub use rtsim_config::flatten;
 
 impl Experiment {
     /// Read and validate an experiment file.
