@@ -309,8 +309,10 @@ fn the_recorded_results_differ_from_their_presets_only_where_their_experiments_s
         ),
         "{remedies}"
     );
+    // The legend names the remedies (a long name wraps onto a second line at a space).
     assert!(
-        fig5.contains("sibenik STRaTA (128 TMs; fill static, policy rays-per-tm)"),
+        fig5.contains(">sibenik STRaTA (128 TMs; fill static, policy</text>")
+            && fig5.contains(">rays-per-tm) L1 misses</text>"),
         "{fig5}"
     );
 }

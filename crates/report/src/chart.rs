@@ -11,6 +11,12 @@ const PLOT: (f64, f64, f64, f64) = (90.0, 44.0, 560.0, 380.0);
 /// Series of more points than this are drawn without a dot per point.
 const DOTS_UP_TO: usize = 60;
 
+/// The plot area's right edge never comes nearer its left than this: a long legend narrows
+/// the plot down to it (370 px of the full 470), and names wider than the room left beside it
+/// (about 46 characters) wrap. Assumed: the axes' tick labels stay apart at this width (six
+/// sizes, 512 KB to 16 MB), and the legend costs wrapped lines, not a squeezed plot.
+const PLOT_RIGHT_MIN: f64 = 460.0;
+
 /// Legend text: its size, and where it starts right of the plot area.
 const LEGEND_TEXT: f64 = 11.0;
 const LEGEND_TEXT_X: f64 = 46.0;
@@ -168,7 +174,7 @@ impl Chart {
             .fold(0.0, f64::max);
         let r = r
             .min(WIDTH as f64 - LEGEND_TEXT_X - widest - 6.0)
-            .max(l + 240.0);
+            .max(PLOT_RIGHT_MIN);
         text(
             &mut out,
             (WIDTH as f64) / 2.0,
@@ -754,6 +760,12 @@ mod tests {
             assert!(end <= WIDTH as f64, "{text:?} ends at {end}");
         }
         assert!(texts.windows(2).all(|w| w[1].1 > w[0].1), "lines go down");
+        // The plot keeps its least width: the axes (the one three-point line) end there.
+        let right = c.layout().into_iter().find_map(|p| match p {
+            Prim::Line { points, .. } if points.len() == 3 => Some(points[2].0),
+            _ => None,
+        });
+        assert_eq!(right, Some(PLOT_RIGHT_MIN));
     }
 
     #[test]
