@@ -329,15 +329,19 @@ pub fn layers_named(
 /// each as a line naming where it was set. Such a setting has no effect on the run; it is
 /// not an error, since `rtsim compare` and `rtsim bench-sim --against-baseline` run several
 /// presets on one command line, and a setting meant for one is rightly unread by the other.
+/// A setting at its built-in default is not named: a run's `config.resolved.toml`, given
+/// back with `--config`, holds every chip's table.
 pub fn unread_settings(inputs: &Inputs, preset: &str) -> Result<Vec<String>, ConfigError> {
     let upper = upper_layers(inputs, None)?;
+    let mut builtin = Layers::new();
+    builtin.merge_value(&RunConfig::default(), "built-in defaults")?;
     let mut leaves = Vec::new();
     rtsim_config::flatten("", upper.table(), &mut leaves);
     Ok(leaves
         .into_iter()
-        .filter_map(|(key, _)| {
+        .filter_map(|(key, value)| {
             let (table, readers) = arch::chip_table(&key)?;
-            if readers.contains(&preset) {
+            if readers.contains(&preset) || builtin.get(&key) == Some(&value) {
                 return None;
             }
             let message = format!(

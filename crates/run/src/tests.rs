@@ -232,7 +232,11 @@ fn every_chip_table_of_arch_is_named_with_its_readers() {
 
 #[test]
 fn settings_the_runs_chip_does_not_read_are_named_with_where_they_were_set() {
-    let mut i = inputs(&["arch.strata.fill=static", "arch.trax.tms=4"]);
+    let mut i = inputs(&[
+        "arch.strata.fill=static",
+        "arch.trax.tms=4",
+        "arch.strata.fused=true",
+    ]);
     i.flag("arch.preset", "trax-baseline");
     let lines = unread_settings(&i, "trax-baseline").unwrap();
     assert_eq!(lines.len(), 1, "{lines:?}");
@@ -259,13 +263,16 @@ fn settings_the_runs_chip_does_not_read_are_named_with_where_they_were_set() {
     // A file's setting is named by its line.
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("run.toml");
-    std::fs::write(&file, "[arch.sgrt]\ncores = 2\n").unwrap();
+    // At its default, a setting is not named (a run's resolved file holds every table).
+    std::fs::write(&file, "[arch.sgrt]\ncores = 2\norganisation = \"pptrv\"\n").unwrap();
+    assert_eq!(arch::ArchConfig::default().sgrt.cores, 4);
     let i = Inputs {
         config_file: Some(file.clone()),
         ..Inputs::default()
     };
     let lines = unread_settings(&i, "strata").unwrap();
     assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(lines[0].contains("arch.sgrt.cores"), "{}", lines[0]);
     assert!(
         lines[0].contains(&format!("{}:2", file.display())),
         "{}",
