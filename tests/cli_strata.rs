@@ -129,8 +129,8 @@ fn compare_says_each_scene_note_once() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert_eq!(stderr.matches("dropped 1 zero-area").count(), 1, "{stderr}");
-    let unread = "--set arch.strata.poll_cycles=8: config key `arch.strata.poll_cycles`: has no \
-                  effect: arch.preset = trax-baseline does not read [arch.strata] (read by strata)";
+    let unread = "--set arch.strata.poll_cycles=8: `arch.strata.poll_cycles` has no effect: \
+                  arch.preset = trax-baseline does not read [arch.strata] (read by strata)";
     assert_eq!(stderr.matches(unread).count(), 1, "{stderr}");
 }
 

@@ -256,33 +256,44 @@ impl Layers {
         if matches!(e, ConfigError::Located { .. }) {
             return e;
         }
-        for (i, src) in self.sources.iter().enumerate().rev() {
+        let Some((i, mut origin)) = self.set_by(&key) else {
+            return e;
+        };
+        // A value from a lower layer (the defaults, a preset) is often wrong only because of
+        // a later assignment beside it (`--set arch.trax.l1.ways=3` makes the default size
+        // invalid): name those too.
+        let beside = self.later_assignments_beside(i + 1, &key);
+        if !beside.is_empty() {
+            origin = format!("{origin}, with {}", beside.join(", "));
+        }
+        ConfigError::Located {
+            origin,
+            source: Box::new(e),
+        }
+    }
+
+    /// Which layer set `key` (the topmost that did): `file:line`, `--set …`, or a preset's
+    /// name.
+    pub fn origin(&self, key: &str) -> Option<String> {
+        self.set_by(key).map(|(_, origin)| origin)
+    }
+
+    /// The topmost layer that set `key`: its index and [`Layers::origin`].
+    fn set_by(&self, key: &str) -> Option<(usize, String)> {
+        self.sources.iter().enumerate().rev().find_map(|(i, src)| {
             let origin = match src {
                 Source::Text { origin, text } => {
-                    key_line(text, &key).map(|line| format!("{origin}:{line}"))
+                    key_line(text, key).map(|line| format!("{origin}:{line}"))
                 }
-                Source::Assignment { origin, key: k } => covers(k, &key).then(|| origin.clone()),
+                Source::Assignment { origin, key: k } => covers(k, key).then(|| origin.clone()),
                 Source::Table {
                     origin,
                     prefix,
                     table,
-                } => table_has(table, prefix, &key).then(|| origin.clone()),
+                } => table_has(table, prefix, key).then(|| origin.clone()),
             };
-            if let Some(mut origin) = origin {
-                // A value from a lower layer (the defaults, a preset) is often wrong only
-                // because of a later assignment beside it (`--set arch.trax.l1.ways=3` makes
-                // the default size invalid): name those too.
-                let beside = self.later_assignments_beside(i + 1, &key);
-                if !beside.is_empty() {
-                    origin = format!("{origin}, with {}", beside.join(", "));
-                }
-                return ConfigError::Located {
-                    origin,
-                    source: Box::new(e),
-                };
-            }
-        }
-        e
+            origin.map(|o| (i, o))
+        })
     }
 
     /// The origins of assignments (`--set`, flags) from source `from` on that set a key in the

@@ -344,11 +344,16 @@ pub fn unread_settings(inputs: &Inputs, preset: &str) -> Result<Vec<String>, Con
             if readers.contains(&preset) || builtin.get(&key) == Some(&value) {
                 return None;
             }
-            let message = format!(
-                "has no effect: arch.preset = {preset} does not read [{table}] (read by {})",
+            let line = format!(
+                "`{key}` has no effect: arch.preset = {preset} does not read [{table}] (read \
+                 by {})",
                 readers.join(", ")
             );
-            Some(upper.locate(ConfigError::key(&key, message)).to_string())
+            // Where it was set (`run.toml:2`, `--set …`).
+            Some(match upper.origin(&key) {
+                Some(origin) => format!("{origin}: {line}"),
+                None => line,
+            })
         })
         .collect())
 }
