@@ -91,6 +91,64 @@ fn simulate_is_deterministic_and_its_resolved_config_repeats_it() {
     }
 }
 
+/// `timing.json` says how many host threads the engine ran on: the baseline's fast engine
+/// takes `--threads`, its time series and STRaTA's engine one (it once said 1 for all).
+#[test]
+fn timing_names_the_threads_the_engine_ran_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let timing = |d: &Path| -> serde_json::Value {
+        serde_json::from_slice(&fs::read(d.join("timing.json")).unwrap()).unwrap()
+    };
+    let strata = |out: &Path| {
+        ok(rtsim()
+            .args([
+                "simulate", "--arch", "strata", "--width", "8", "--height", "8",
+            ])
+            .args([
+                "--set",
+                "arch.trax.tms=2",
+                "--set",
+                "arch.trax.tps_per_tm=8",
+            ])
+            .args(["--threads", "2", "--out"])
+            .arg(out))
+    };
+    for (name, threads, stdout) in [
+        (
+            "two",
+            2,
+            simulate(&dir.path().join("two"), &["--threads", "2"]),
+        ),
+        (
+            "one",
+            1,
+            simulate(&dir.path().join("one"), &["--threads", "1"]),
+        ),
+        (
+            "timeline",
+            1,
+            simulate(
+                &dir.path().join("timeline"),
+                &["--threads", "2", "--timeline", "500"],
+            ),
+        ),
+        ("strata", 1, strata(&dir.path().join("strata"))),
+    ] {
+        let t = timing(&dir.path().join(name));
+        assert_eq!(t["threads"], threads, "{name}: {t}");
+        let wall = t["simulate_seconds"].as_f64().unwrap();
+        assert!(wall > 0.0, "{name}: {t}");
+        if cfg!(target_os = "linux") {
+            assert!(t["cpu_seconds"].as_f64().unwrap() > 0.0, "{name}: {t}");
+        }
+        let plural = if threads == 1 { "thread" } else { "threads" };
+        assert!(
+            stdout.contains(&format!("({threads} {plural}")),
+            "{name}: the host line lacks the thread count: {stdout}"
+        );
+    }
+}
+
 #[test]
 fn a_cycle_limit_stops_the_frame_and_says_so() {
     let dir = tempfile::tempdir().unwrap();

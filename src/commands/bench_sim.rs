@@ -83,6 +83,7 @@ pub fn run(mut args: BenchSimArgs) -> Result<()> {
             pixels: r.pixels,
             seconds: r.seconds,
             cpu_seconds: r.cpu_seconds,
+            threads: r.threads,
         };
         (ran, Some(r.out.strata))
     } else {

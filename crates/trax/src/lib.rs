@@ -104,6 +104,18 @@ pub struct Options {
     pub timeline: Option<u64>,
 }
 
+impl Options {
+    /// The host threads the fast engine runs the TRaX program on: [`Options::threads`] with
+    /// the fast engine and no time series ([`par`]), else one. Other sources (STRaTA's) run on
+    /// [`fast`] or [`reference`] alone, one thread, whatever these options say.
+    pub fn engine_threads(&self) -> usize {
+        match self.engine {
+            Engine::Fast if self.timeline.is_none() => self.threads.max(1),
+            _ => 1,
+        }
+    }
+}
+
 /// Where a run is, for progress bars.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Progress {
@@ -152,8 +164,8 @@ pub fn simulate(
         opts,
         progress,
         |chip, limit, tick| match opts.engine {
-            Engine::Fast if opts.threads > 1 && opts.timeline.is_none() => {
-                par::run(chip, opts.threads, limit, tick)
+            Engine::Fast if opts.engine_threads() > 1 => {
+                par::run(chip, opts.engine_threads(), limit, tick)
             }
             Engine::Fast => fast::run(chip, limit, tick),
             Engine::Reference => reference::run(chip, limit, tick),

@@ -51,6 +51,7 @@ pub fn run(s: &Session) -> Result<SimOutput> {
             threads: s.pool.current_num_threads(),
             bvh_build_seconds: s.build_seconds,
             simulate_seconds: seconds,
+            cpu_seconds: None,
             cycles_per_second: 0.0,
         },
         summary,

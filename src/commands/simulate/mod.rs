@@ -195,9 +195,17 @@ impl RunFacts {
 /// Host figures of a run.
 #[derive(Debug, Default, Serialize)]
 pub struct Timing {
+    /// Host threads the simulation ran on (at most: the TRaX baseline's engine runs on one
+    /// of them when the others lose, `docs/TRAX.md` §4).
     pub threads: usize,
     pub bvh_build_seconds: f64,
+    /// Wall-clock seconds of the simulation alone (not the BVH build).
     pub simulate_seconds: f64,
+    /// Process CPU seconds of the simulation, where the host reports them: on one thread
+    /// close to `simulate_seconds` on an idle host; below it when other programs share the
+    /// cores, above it when the engine ran on several threads.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cpu_seconds: Option<f64>,
     /// Simulated core cycles per host second (0 for `functional`).
     pub cycles_per_second: f64,
 }

@@ -141,6 +141,7 @@ pub fn simulate(s: &Session) -> Result<SgrtRun> {
                 threads: 1,
                 bvh_build_seconds: s.build_seconds,
                 simulate_seconds: seconds,
+                cpu_seconds: None,
                 cycles_per_second: result.stats.cycles as f64 / seconds.max(1e-9),
             },
             summary,

@@ -23,6 +23,7 @@ pub(crate) fn frame(s: &Session) -> Result<Ran<StrataOutput>> {
     let cfg = &s.resolved.config;
     trax::frame_on(
         s,
+        false,
         Box::new(|f, o, p| {
             Ok(rtsim_strata::timed::simulate(
                 &cfg.arch.trax,
@@ -65,6 +66,7 @@ pub fn run(s: &Session) -> Result<SimOutput> {
         pixels: r.pixels,
         seconds: r.seconds,
         cpu_seconds: r.cpu_seconds,
+        threads: r.threads,
     };
     let mut out = trax::output(s, ran, extra, |run, report| {
         Box::new(StrataStats {

@@ -35,6 +35,9 @@ pub(crate) struct Ran<O = rtsim_trax::Output> {
     /// Wall-clock and process CPU seconds of the simulation alone (not the BVH build).
     pub seconds: f64,
     pub cpu_seconds: Option<f64>,
+    /// Host threads the engine ran on ([`Options::engine_threads`] for the TRaX program;
+    /// one for the other sources).
+    pub threads: usize,
 }
 
 /// What runs a frame on a TRaX-chip model: the frame, the engine options, a progress sink.
@@ -42,7 +45,13 @@ pub(crate) type ChipRun<'s, O> =
     dyn FnOnce(Frame<'_>, &Options, &mut dyn FnMut(rtsim_trax::Progress)) -> Result<O> + 's;
 
 /// Run the session's frame on a TRaX-chip model (`chip`), with a progress bar on terminals.
-pub(crate) fn frame_on<O>(s: &Session, chip: Box<ChipRun<'_, O>>) -> Result<Ran<O>> {
+/// `parallel`: the model runs the TRaX program, whose fast engine may take several host
+/// threads (`rtsim_trax::simulate`); other sources run on one.
+pub(crate) fn frame_on<O>(
+    s: &Session,
+    parallel: bool,
+    chip: Box<ChipRun<'_, O>>,
+) -> Result<Ran<O>> {
     let cfg = &s.resolved.config;
     let params = rtsim_run::workload_params(&s.resolved);
     let integ = Integrator::new(&s.resolved.scene, &s.tracer, params.clone());
@@ -55,6 +64,14 @@ pub(crate) fn frame_on<O>(s: &Session, chip: Box<ChipRun<'_, O>>) -> Result<Ran<
     let bar = crate::progress::bar(pixels.len() as u64, "pixels");
     let cpu_start = crate::cputime::process_seconds();
     let start = Instant::now();
+    let opts = Options {
+        engine,
+        cycle_limit: cfg.sim.cycle_limit,
+        seed: cfg.seed,
+        threads: s.pool.current_num_threads(),
+        timeline: cfg.sim.timeline_cycles,
+    };
+    let threads = if parallel { opts.engine_threads() } else { 1 };
     let out = chip(
         Frame {
             integ: &integ,
@@ -63,13 +80,7 @@ pub(crate) fn frame_on<O>(s: &Session, chip: Box<ChipRun<'_, O>>) -> Result<Ran<
             pixels: &pixels,
             image_pixels: (w * h) as usize,
         },
-        &Options {
-            engine,
-            cycle_limit: cfg.sim.cycle_limit,
-            seed: cfg.seed,
-            threads: s.pool.current_num_threads(),
-            timeline: cfg.sim.timeline_cycles,
-        },
+        &opts,
         &mut |p| {
             bar.set_position(p.pixels_done);
             bar.set_message(format!("{} cycles, {} rays", si(p.cycle), si(p.rays)));
@@ -86,6 +97,7 @@ pub(crate) fn frame_on<O>(s: &Session, chip: Box<ChipRun<'_, O>>) -> Result<Ran<
         pixels,
         seconds,
         cpu_seconds,
+        threads,
     })
 }
 
@@ -94,6 +106,7 @@ pub(crate) fn frame(s: &Session) -> Result<Ran> {
     let cfg = &s.resolved.config;
     frame_on(
         s,
+        true,
         Box::new(|f, o, p| Ok(rtsim_trax::simulate(&cfg.arch.trax, &cfg.dram, f, o, p)?)),
     )
 }
@@ -120,7 +133,8 @@ pub(crate) fn output(
         params,
         pixels,
         seconds,
-        ..
+        cpu_seconds,
+        threads,
     } = ran;
     let (w, h) = (params.width, params.height);
     let r = &out.report;
@@ -137,8 +151,11 @@ pub(crate) fn output(
     summary.extend(extra);
     let tp_cycles = r.cycles as f64 * r.chip.tps as f64;
     let cycles_per_second = r.cycles as f64 / seconds;
+    let cpu = cpu_seconds.map_or(String::new(), |c| format!(", {c:.2} s CPU"));
+    let plural = if threads == 1 { "" } else { "s" };
     summary.push(format!(
-        "host             {seconds:.2} s: {:.0} cycles/s, {:.1} M TP-cycles/s, {:.1} M instructions/s",
+        "host             {seconds:.2} s ({threads} thread{plural}{cpu}): {:.0} cycles/s, {:.1} M \
+         TP-cycles/s, {:.1} M instructions/s",
         cycles_per_second,
         tp_cycles / seconds / 1e6,
         r.instructions.total as f64 / seconds / 1e6
@@ -159,9 +176,10 @@ pub(crate) fn output(
         stats: stats(run, out.report),
         pixels: out.pixels,
         timing: Timing {
-            threads: 1,
+            threads,
             bvh_build_seconds: s.build_seconds,
             simulate_seconds: seconds,
+            cpu_seconds,
             cycles_per_second,
         },
         summary,
