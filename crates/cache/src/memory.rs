@@ -61,6 +61,8 @@ impl MemoryPort for FixedLatency {
             let first = self.queue.front().map_or(r.arrival, |c| c.finish);
             return Err(QueueFull {
                 retry_at: first.max(r.arrival) + 1,
+                queue: 0,
+                domain: 0,
             }
             .into());
         }
@@ -98,4 +100,6 @@ impl MemoryPort for FixedLatency {
     fn line_bytes(&self) -> u32 {
         self.line_bytes
     }
+    /// Refusals are not counted here.
+    fn refuse_again(&mut self, _req: &MemRequest, _times: u64) {}
 }

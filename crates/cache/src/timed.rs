@@ -59,7 +59,7 @@ use crate::stats::CacheStats;
 use crate::topology::{Parent, Topology};
 use rtsim_config::ConfigError;
 use rtsim_core::mem::FIBONACCI_HASH;
-use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort};
+use rtsim_core::{MemCompletion, MemError, MemOp, MemRequest, MemoryPort, QueueFull};
 use rtsim_sim::{Component, EventError, EventQueue};
 use std::cell::Cell;
 use std::collections::{HashMap, VecDeque};
@@ -169,10 +169,90 @@ enum Stage {
 
 #[derive(Clone, Copy, Debug)]
 enum Ev {
-    Access { node: usize, op: Op, stage: Stage },
-    Fill { node: usize, addr: u64 },
-    MemSend { node: usize, addr: u64, op: MemOp },
-    Retry { node: usize },
+    Access {
+        node: usize,
+        op: Op,
+        stage: Stage,
+    },
+    Fill {
+        node: usize,
+        addr: u64,
+    },
+    MemSend {
+        node: usize,
+        addr: u64,
+        op: MemOp,
+    },
+    /// A run of line requests a full memory queue refused, offered again in order
+    /// ([`MemWaits`]).
+    MemWait {
+        group: u32,
+    },
+    Retry {
+        node: usize,
+    },
+}
+
+/// A line request waiting for room in a memory queue.
+#[derive(Clone, Copy, Debug)]
+struct MemWaiter {
+    addr: u64,
+    node: u32,
+    /// The memory queue that refused it ([`QueueFull::queue`]; a request's queue never
+    /// changes).
+    queue: u32,
+    /// Its cache's requester tag at the memory.
+    tag: u32,
+    op: MemOp,
+}
+
+impl MemWaiter {
+    /// The request, arriving at `t`.
+    fn request(&self, t: u64) -> MemRequest {
+        MemRequest {
+            id: u64::from(self.node),
+            addr: self.addr,
+            op: self.op,
+            arrival: t,
+            tag: self.tag,
+        }
+    }
+}
+
+/// Line requests refused by a full memory queue, waiting to be offered again.
+///
+/// Each refused request used to be an [`Ev::MemSend`] of its own, offered again at the
+/// queue's retry cycle and mostly refused again: on a DRAM-bound frame thousands wait and each
+/// retry was an event (35 G refusals in one STRaTA frame of Hairball at 1024², most of its
+/// host time). A *group* stands for the waiting requests of one memory domain
+/// ([`QueueFull::domain`], a DRAM channel) due at one cycle that lie between the same two other
+/// events of the event queue: requests refused with no event other than such groups pushed in
+/// between. One [`Ev::MemWait`] holds them, in order, and offers them in turn when it comes up.
+///
+/// Why that is exact. Expanded into one event per request, the groups give the event queue of
+/// the one-event-per-request scheme except that the requests of different domains between the
+/// same two other events come domain by domain instead of interleaved. Those commute: a
+/// domain's requests change only that domain of the memory (`QueueFull::domain`), and an
+/// accepted write's only other effect, freeing its cache's write-buffer entry and scheduling
+/// the cache's retry for the current cycle, is the same whichever of them comes first, since
+/// no other event runs between them. Within a domain the order is kept. And once a request is
+/// refused, the memory's contract (`QueueFull::queue`) says the requests after it for the same
+/// queue are refused too, with the same retry cycle, until something is accepted into the
+/// domain: they are counted refused ([`MemoryPort::refuse_again`]) without being offered. Tests
+/// compare both schemes on saturated memories.
+#[derive(Debug, Default)]
+struct MemWaits {
+    /// By group id: the domain and the waiting requests in order.
+    groups: Vec<(u32, Vec<MemWaiter>)>,
+    free: Vec<u32>,
+    /// Per domain: the group that requests refused now for a given cycle join (the cycle, the
+    /// group, and `others` when it was made: it is joinable while no other event has been
+    /// pushed since).
+    open: Vec<Option<(u64, u32, u64)>>,
+    /// Events pushed other than [`Ev::MemWait`].
+    others: u64,
+    /// One event per refused request, as before (tests; the same results, slower).
+    off: bool,
 }
 
 /// The MSHR fetching each line in flight. `filter` has bit `line mod 64` set iff a line in
@@ -479,6 +559,7 @@ pub struct Hierarchy<M> {
     /// after it), so advancing to it again is free.
     settled: Option<u64>,
     memory_tags: u32,
+    waits: MemWaits,
 }
 
 /// What a [`Hierarchy`] is built from (its [`Component::Config`]).
@@ -556,7 +637,15 @@ impl<M: MemoryPort> Hierarchy<M> {
             now: 0,
             settled: None,
             memory_tags,
+            waits: MemWaits::default(),
         })
+    }
+
+    /// Offer every request refused by a full memory queue again as its own event, as the
+    /// hierarchy once did, instead of in groups ([`MemWaits`]): the same results, slower. For
+    /// tests that prove the two equal.
+    pub fn set_grouped_memory_waits(&mut self, on: bool) {
+        self.waits.off = !on;
     }
 
     pub fn topology(&self) -> &Topology {
@@ -718,6 +807,9 @@ impl<M: MemoryPort> Hierarchy<M> {
             self.settled.is_none_or(|s| t > s),
             "event at {t} behind the settled cycle"
         );
+        if !matches!(ev, Ev::MemWait { .. }) {
+            self.waits.others += 1;
+        }
         Ok(self.events.push(t, ev)?)
     }
 
@@ -783,6 +875,7 @@ impl<M: MemoryPort> Hierarchy<M> {
             Ev::Access { node, op, stage } => self.inner_access(t, node, op, stage),
             Ev::Fill { node, addr } => self.fill(t, node, addr),
             Ev::MemSend { node, addr, op } => self.mem_send(t, node, addr, op),
+            Ev::MemWait { group } => self.mem_wait(t, group),
             Ev::Retry { node } => {
                 self.nodes[node].retry_pending = false;
                 // The queued accesses are offered again in arrival order until one is refused
@@ -974,9 +1067,108 @@ impl<M: MemoryPort> Hierarchy<M> {
                 }
                 Ok(())
             }
-            Err(MemError::Full(q)) => self.push(q.retry_at, Ev::MemSend { node: n, addr, op }),
+            Err(MemError::Full(q)) => {
+                let w = MemWaiter {
+                    addr,
+                    node: n as u32,
+                    queue: q.queue,
+                    tag: req.tag,
+                    op,
+                };
+                self.wait(q, w).map(|_| ())
+            }
             Err(e) => Err(HierarchyError::Memory(e)),
         }
+    }
+
+    /// Request `w`, refused by the memory (`q`), waits for its retry cycle: in its domain's
+    /// open group for that cycle if no other event has been pushed since the group was made,
+    /// else in a new group ([`MemWaits`]). Returns the group.
+    fn wait(&mut self, q: QueueFull, w: MemWaiter) -> Result<u32, HierarchyError> {
+        if self.waits.off {
+            let (node, addr, op) = (w.node as usize, w.addr, w.op);
+            self.push(q.retry_at, Ev::MemSend { node, addr, op })?;
+            return Ok(u32::MAX);
+        }
+        let d = q.domain as usize;
+        if self.waits.open.len() <= d {
+            self.waits.open.resize(d + 1, None);
+        }
+        if let Some((c, g, others)) = self.waits.open[d]
+            && c == q.retry_at
+            && others == self.waits.others
+        {
+            self.waits.groups[g as usize].1.push(w);
+            return Ok(g);
+        }
+        let g = match self.waits.free.pop() {
+            Some(g) => {
+                let group = &mut self.waits.groups[g as usize];
+                group.0 = q.domain;
+                group.1.push(w);
+                g
+            }
+            None => {
+                self.waits.groups.push((q.domain, vec![w]));
+                (self.waits.groups.len() - 1) as u32
+            }
+        };
+        self.push(q.retry_at, Ev::MemWait { group: g })?;
+        self.waits.open[d] = Some((q.retry_at, g, self.waits.others));
+        Ok(g)
+    }
+
+    /// Group `g`'s requests are offered again at `t`, in order (see [`MemWaits`]).
+    fn mem_wait(&mut self, t: u64, g: u32) -> Result<(), HierarchyError> {
+        let (domain, mut members) = std::mem::take(&mut self.waits.groups[g as usize]);
+        if self.waits.open[domain as usize].is_some_and(|(_, o, _)| o == g) {
+            self.waits.open[domain as usize] = None;
+        }
+        self.mem_next.set(None);
+        if t > 0 && self.memory.now().is_none_or(|m| m < t - 1) {
+            self.memory.advance_to(t - 1);
+        }
+        // The last refusal, while nothing has been accepted into the domain since: the
+        // requests after it for the same queue are refused too, with its retry cycle.
+        let mut refused: Option<QueueFull> = None;
+        let mut i = 0;
+        while i < members.len() {
+            let w = members[i];
+            if let Some(q) = refused.filter(|q| q.queue == w.queue) {
+                // The run of them with the same tag: counted refused, and waiting on in the
+                // group the first joins (nothing is pushed in between, so they would all
+                // have joined it).
+                let end = i + members[i..]
+                    .iter()
+                    .position(|m| m.queue != w.queue || m.tag != w.tag)
+                    .unwrap_or(members.len() - i);
+                self.memory.refuse_again(&w.request(t), (end - i) as u64);
+                // (Only grouping pushes `MemWait` events, so `to` is a group.)
+                let to = self.wait(q, w)?;
+                let rest = &members[i + 1..end];
+                self.waits.groups[to as usize].1.extend_from_slice(rest);
+                i = end;
+                continue;
+            }
+            match self.memory.try_enqueue(w.request(t)) {
+                Ok(()) => {
+                    refused = None;
+                    if w.op == MemOp::Write {
+                        self.free_write_slot(t, w.node as usize)?;
+                    }
+                }
+                Err(MemError::Full(q)) => {
+                    refused = Some(q);
+                    self.wait(q, w)?;
+                }
+                Err(e) => return Err(HierarchyError::Memory(e)),
+            }
+            i += 1;
+        }
+        members.clear();
+        self.waits.groups[g as usize].1 = members;
+        self.waits.free.push(g);
+        Ok(())
     }
 
     /// Every cache's counters, with its name and level.

@@ -372,6 +372,75 @@ fn event_skipping_equals_ticking_every_cycle() {
     }
 }
 
+/// Requests refused by a full DRAM queue wait in groups, one event per run of them
+/// (`MemWaits` in `timed.rs`); offering each again as its own event, as the hierarchy once
+/// did, must give the same outcomes, completions and counters, here with the queues so small
+/// that thousands of requests wait: one L2 on two DRAM channels with 4-entry read and write
+/// queues,
+/// and SGRT's several caches (several requester tags) on LPDDR3.
+#[test]
+fn grouped_memory_waits_equal_one_event_per_refused_request() {
+    let tiny = || {
+        let mut cfg = two_level(8);
+        cfg.l1.mshrs = 32;
+        cfg.l2.mshrs = 4096;
+        cfg.l2.size_bytes = 16 * 1024;
+        let mut d = preset_config("gddr5-trax").unwrap();
+        d.organisation.channels = 2;
+        d.controller.read_queue = 4;
+        d.controller.write_queue = 4;
+        (
+            d.controller.write_high_watermark,
+            d.controller.write_low_watermark,
+        ) = (3, 1);
+        let dram = Dram::new(&d, Requester::mhz(1000.0).with_tags(1)).unwrap();
+        Hierarchy::new(Topology::from_config(&cfg).unwrap(), dram).unwrap()
+    };
+    let sgrt_tiny = || {
+        let h = sgrt(2);
+        let mut d = preset_config("lpddr3-1600").unwrap();
+        d.organisation.channels = 1;
+        d.controller.read_queue = 2;
+        d.controller.write_queue = 4;
+        (
+            d.controller.write_high_watermark,
+            d.controller.write_low_watermark,
+        ) = (3, 1);
+        let dram = Dram::new(&d, Requester::mhz(500.0).with_tags(4)).unwrap();
+        Hierarchy::new(h.topology().clone(), dram).unwrap()
+    };
+    for (name, make, l1s, spacing) in [
+        (
+            "trax",
+            Box::new(tiny) as Box<dyn Fn() -> Hierarchy<Dram>>,
+            8usize,
+            1,
+        ),
+        ("sgrt", Box::new(sgrt_tiny), 10, 1),
+    ] {
+        let reqs = random_trace(6000, 5, l1s, 1 << 18, spacing);
+        let (mut grouped, mut single) = (make(), make());
+        single.set_grouped_memory_waits(false);
+        let (cg, og) = drive(&mut grouped, &reqs, false);
+        let (cs, os) = drive(&mut single, &reqs, false);
+        assert_eq!(og, os, "{name}: outcomes");
+        assert_eq!(cg, cs, "{name}: completions");
+        assert_eq!(
+            grouped.all_stats(),
+            single.all_stats(),
+            "{name}: cache stats"
+        );
+        let (dg, ds) = (grouped.memory_mut().stats(), single.memory_mut().stats());
+        assert_eq!(dg, ds, "{name}: DRAM stats");
+        assert!(
+            dg.reads_refused > 10 * reqs.len() as u64 && dg.writes_refused > 0,
+            "{name}: the queues saturate ({} reads, {} writes refused)",
+            dg.reads_refused,
+            dg.writes_refused
+        );
+    }
+}
+
 /// Accesses far apart in time neither merge nor wait: the timed hierarchy then sees exactly
 /// the functional model's hits, misses, evictions and write-backs at every level.
 #[test]

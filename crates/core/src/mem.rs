@@ -70,6 +70,16 @@ pub struct QueueFull {
     /// refused arrival, if later): no room can appear before that event, so polling earlier is
     /// wasted. The retry may still be refused if other requests took the room first.
     pub retry_at: u64,
+    /// The queue that refused it, as the model numbers its queues. Until the model accepts
+    /// a request into the same domain or is advanced, every request it would put in that
+    /// queue is refused too, with the same `retry_at`: a requester holding several such
+    /// requests may count them refused with [`MemoryPort::refuse_again`] instead of offering
+    /// each.
+    pub queue: u32,
+    /// The part of the model the queue belongs to (a DRAM channel): requests to different
+    /// domains never change each other's acceptance, retry cycles or completions, so a
+    /// requester may offer them in either order.
+    pub domain: u32,
 }
 
 /// Why a request was not accepted.
@@ -109,4 +119,8 @@ pub trait MemoryPort {
     fn now(&self) -> Option<u64>;
     /// Bytes per request (the model's line); requesters with caches must use the same.
     fn line_bytes(&self) -> u32;
+    /// Count `times` more refusals of `req`, which the model has just refused ([`QueueFull`])
+    /// with nothing accepted or advanced since: what offering it `times` more times would
+    /// have done (it changes nothing but the model's refusal counters).
+    fn refuse_again(&mut self, req: &MemRequest, times: u64);
 }

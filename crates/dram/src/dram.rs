@@ -193,6 +193,11 @@ impl Dram {
         self.channel_event(loc.channel as usize)
     }
 
+    /// The number [`QueueFull::queue`] gives a channel's read or write queue.
+    fn queue_id(channel: u32, op: MemOp) -> u32 {
+        2 * channel + u32::from(op == MemOp::Write)
+    }
+
     fn channel_event(&self, channel: usize) -> Option<u64> {
         let e = self.mem_event_to_req(self.channels[channel].next_event());
         (e != u64::MAX).then_some(e)
@@ -239,6 +244,8 @@ impl MemoryPort for Dram {
                 .expect("a full queue implies a future event");
             return Err(QueueFull {
                 retry_at: e.max(req.arrival) + 1,
+                queue: Self::queue_id(loc.channel, req.op),
+                domain: loc.channel,
             }
             .into());
         }
@@ -329,6 +336,12 @@ impl MemoryPort for Dram {
 
     fn line_bytes(&self) -> u32 {
         self.spec.org.line_bytes
+    }
+
+    fn refuse_again(&mut self, req: &MemRequest, times: u64) {
+        let map = &self.spec.mapper;
+        let channel = map.decode(map.line_addr(req.addr)).channel as usize;
+        self.channels[channel].refused_times(req.op, req.tag, times);
     }
 }
 

@@ -209,12 +209,17 @@ impl Channel {
 
     /// Count a refused request.
     pub fn refused(&mut self, op: MemOp, tag: u32) {
+        self.refused_times(op, tag, 1);
+    }
+
+    /// Count `times` refusals of a request of kind `op` from `tag`.
+    pub fn refused_times(&mut self, op: MemOp, tag: u32, times: u64) {
         if !self.single_tag {
-            self.stats.per_tag[tag as usize].refused += 1;
+            self.stats.per_tag[tag as usize].refused += times;
         }
         match op {
-            MemOp::Read => self.stats.reads_refused += 1,
-            MemOp::Write => self.stats.writes_refused += 1,
+            MemOp::Read => self.stats.reads_refused += times,
+            MemOp::Write => self.stats.writes_refused += times,
         }
     }
 
