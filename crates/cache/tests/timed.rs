@@ -376,37 +376,32 @@ fn event_skipping_equals_ticking_every_cycle() {
 /// (`MemWaits` in `timed.rs`); offering each again as its own event, as the hierarchy once
 /// did, must give the same outcomes, completions and counters, here with the queues so small
 /// that thousands of requests wait: one L2 on two DRAM channels with 4-entry read and write
-/// queues,
-/// and SGRT's several caches (several requester tags) on LPDDR3.
+/// queues, and SGRT's several caches (several requester tags) on LPDDR3.
 #[test]
 fn grouped_memory_waits_equal_one_event_per_refused_request() {
+    // A DRAM preset cut down to `channels` channels and tiny queues, so that requests wait.
+    fn tiny_dram(preset: &str, channels: u32, read_queue: u32, requester: Requester) -> Dram {
+        let mut d = preset_config(preset).unwrap();
+        d.organisation.channels = channels;
+        d.controller.read_queue = read_queue;
+        d.controller.write_queue = 4;
+        (
+            d.controller.write_high_watermark,
+            d.controller.write_low_watermark,
+        ) = (3, 1);
+        Dram::new(&d, requester).unwrap()
+    }
     let tiny = || {
         let mut cfg = two_level(8);
         cfg.l1.mshrs = 32;
         cfg.l2.mshrs = 4096;
         cfg.l2.size_bytes = 16 * 1024;
-        let mut d = preset_config("gddr5-trax").unwrap();
-        d.organisation.channels = 2;
-        d.controller.read_queue = 4;
-        d.controller.write_queue = 4;
-        (
-            d.controller.write_high_watermark,
-            d.controller.write_low_watermark,
-        ) = (3, 1);
-        let dram = Dram::new(&d, Requester::mhz(1000.0).with_tags(1)).unwrap();
+        let dram = tiny_dram("gddr5-trax", 2, 4, Requester::mhz(1000.0).with_tags(1));
         Hierarchy::new(Topology::from_config(&cfg).unwrap(), dram).unwrap()
     };
     let sgrt_tiny = || {
         let h = sgrt(2);
-        let mut d = preset_config("lpddr3-1600").unwrap();
-        d.organisation.channels = 1;
-        d.controller.read_queue = 2;
-        d.controller.write_queue = 4;
-        (
-            d.controller.write_high_watermark,
-            d.controller.write_low_watermark,
-        ) = (3, 1);
-        let dram = Dram::new(&d, Requester::mhz(500.0).with_tags(4)).unwrap();
+        let dram = tiny_dram("lpddr3-1600", 1, 2, Requester::mhz(500.0).with_tags(4));
         Hierarchy::new(h.topology().clone(), dram).unwrap()
     };
     for (name, make, l1s, spacing) in [
