@@ -89,6 +89,37 @@ fn resolved_config_repeats_the_run() {
 }
 
 #[test]
+fn a_dram_setting_is_named_as_having_no_effect_on_the_functional_tracer() {
+    // The functional tracer has no main memory: `dram.*` is read by the timed chips only.
+    let dir = tempfile::tempdir().unwrap();
+    let out = rtsim()
+        .args(["render", "--width", "8", "--height", "8"])
+        .args(["--set", "dram.controller.read_queue=8", "--out"])
+        .arg(dir.path().join("a"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let unread = "note: --set dram.controller.read_queue=8: `dram.controller.read_queue` has \
+                  no effect: arch.preset = functional does not read [dram] (read by sgrt, \
+                  sgrt-sptrv, sgrt-1, trax-baseline, strata)";
+    assert_eq!(stderr.matches(unread).count(), 1, "{stderr}");
+    // The run's resolved file holds the whole `[dram]` table; repeating the run from it names
+    // only what the user set.
+    let again = rtsim()
+        .args(["render", "--config"])
+        .arg(dir.path().join("a/config.resolved.toml"))
+        .arg("--out")
+        .arg(dir.path().join("b"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&again.stderr);
+    assert!(again.status.success(), "{stderr}");
+    assert_eq!(stderr.matches("has no effect").count(), 1, "{stderr}");
+    assert!(stderr.contains("`dram.controller.read_queue`"), "{stderr}");
+}
+
+#[test]
 fn deterministic_across_runs_and_thread_counts() {
     let dir = tempfile::tempdir().unwrap();
     for workload in ["path", "diffuse"] {

@@ -64,14 +64,19 @@ impl Validate for ArchConfig {
     }
 }
 
-/// The chips' own tables of `[arch]`, each with the presets whose chip reads it: the TRaX
+/// The tables only some chips read, each with the presets whose chip reads it: the TRaX
 /// chip's (`arch.trax`) is read by the baseline and by STRaTA, which runs on it; STRaTA's
-/// additions (`arch.strata`) by STRaTA alone; SGRT's by the SGRT presets; `functional` reads
-/// none. A setting in a table its run's chip does not read has no effect on the run.
+/// additions (`arch.strata`) by STRaTA alone; SGRT's by the SGRT presets; main memory
+/// (`dram`) by every timed chip. `functional`, the untimed tracer, reads none of them. A
+/// setting in a table its run's chip does not read has no effect on the run.
 pub const CHIP_TABLES: &[(&str, &[&str])] = &[
     ("arch.sgrt", &["sgrt", "sgrt-sptrv", "sgrt-1"]),
     ("arch.trax", &["trax-baseline", "strata"]),
     ("arch.strata", &["strata"]),
+    (
+        "dram",
+        &["sgrt", "sgrt-sptrv", "sgrt-1", "trax-baseline", "strata"],
+    ),
 ];
 
 /// Whether the chip of `preset` reads the setting `key` (a dotted key). Only the chips' own
